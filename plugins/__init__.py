@@ -1,0 +1,25 @@
+"""Track plugins: the rules of the game (stages, scenarios, exceptions, file checks, scores).
+
+Public API: ``TrackPlugin``, ``Scenario``, ``ScoringInput``, ``FileRule``, ``load_track``,
+``available_tracks``, ``PluginError``. The conformance suite is ``plugins.conformance``.
+"""
+
+from plugins._base import FileRule, Scenario, ScoringInput, TrackPlugin
+from plugins._registry import GROUP, PluginError, available_tracks, load_track, validate_plugin
+from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
+
+__all__ = [
+    "GROUP",
+    "FileRule",
+    "Observation",
+    "PluginError",
+    "Scenario",
+    "ScoringInput",
+    "StageSpec",
+    "StepOutcome",
+    "TrackEpisode",
+    "TrackPlugin",
+    "available_tracks",
+    "load_track",
+    "validate_plugin",
+]

@@ -1,0 +1,278 @@
+"""The sanity track: the whole pipeline in seconds, with the real tracks' shape.
+
+A point robot in a 4 m arena. Stage ``explore``: find the target and write its position to
+``world_model.json`` (object id ``"target"``). Stage ``reach``: drive onto it. When the robot
+comes within 0.5 m, the controlled exception may move the target (``target_moved``); the
+agent should notice, log an ``exception_detected`` record, update its model and reach the
+new place. The score has the five components of Track 1's equation (1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from plugins._base import FileRule, Scenario, ScoringInput, TrackPlugin
+from schemas import FieldSpec, ScoreCard, WorldModel
+from schemas._protocol import ActionResult, HostMessage
+from simhost._episode import Observation, StageEnd, StageSpec, StepOutcome, TrackEpisode
+
+TRIGGER_RADIUS = 0.5
+DETECT_WINDOW = 20  # steps after the exception's first observable effect
+MODEL_TOLERANCE = 0.5  # metres: model error at which the model score reaches 0
+
+
+def _tensor(name: str, shape: tuple[int, ...], low: float, high: float, text: str) -> FieldSpec:
+    return FieldSpec(name=name, dtype="float32", shape=shape, low=low, high=high, tensor=True,
+                     description=text)
+
+
+class SanityEpisode(TrackEpisode):
+    """One live sanity episode around ``SanityArenaEnv``."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        from simhost.sanity import HALF, SanityArenaEnv
+
+        self.scenario = scenario
+        self.env = SanityArenaEnv()
+        self.observation_spec = (
+            _tensor("position", (2,), -HALF, HALF, "odometry x, y (m)"),
+            _tensor("velocity", (2,), -5, 5, "velocity (m/s)"),
+            _tensor("target_visible", (1,), 0, 1, "1 when the target is within sensing range"),
+            _tensor("target_rel", (2,), -2 * HALF, 2 * HALF, "target minus position, if visible"),
+        )
+        self.action_spec = (
+            FieldSpec(name="velocity", dtype="float32", shape=(2,), low=-1.0, high=1.0,
+                      description="desired velocity, scaled to 1 m/s"),
+        )
+        p = scenario.params
+        self._start = np.asarray(p["start"])
+        self._target = np.asarray(p["target"])
+        self._moved_to = None if p.get("moved_target") is None else np.asarray(p["moved_target"])
+        self._steps = 0
+        self._stage_steps: dict[str, int] = {}
+        self._found_in_explore = False
+        self._exception: dict[str, Any] | None = None
+        self._reach_start: list[float] | None = None
+        self._reach_path = 0.0
+        self._reached_step: int | None = None
+        self._obs: dict[str, np.ndarray] = {}
+
+    def reset(self) -> Observation:
+        self._obs, _ = self.env.reset(
+            seed=self.scenario.seed, options={"start": self._start, "target": self._target}
+        )
+        return self.observe()
+
+    def observe(self) -> Observation:
+        return Observation(tensors=self._obs)
+
+    def on_stage_start(self, stage: str) -> tuple[HostMessage, ...]:
+        if stage == "reach":
+            self._reach_start = self.env.position.tolist()
+            return (HostMessage(type="instruction", data={"text": "go to the target"}),)
+        return (HostMessage(type="instruction", data={"text": "find the target and map it"}),)
+
+    def on_stage_end(
+        self, stage: str, *, ended_by: StageEnd, payload: Mapping[str, Any]
+    ) -> tuple[Mapping[str, Any], ...]:
+        return ()
+
+    def step(self, stage: str, action: Mapping[str, Any]) -> StepOutcome:
+        velocity = action.get("velocity")
+        if velocity is None:
+            return StepOutcome(
+                observation=self.observe(),
+                action=ActionResult(applied=False, ok=False, reason="no velocity given"),
+            )
+        self._steps += 1
+        self._stage_steps[stage] = self._stage_steps.get(stage, 0) + 1
+        before = self.env.position
+        self._obs, _, reached, _, _ = self.env.step(np.asarray(velocity))
+        events: list[dict[str, Any]] = []
+        if stage == "explore" and self.env.target_visible():
+            self._found_in_explore = True
+        if stage == "reach":
+            self._reach_path += float(np.linalg.norm(self.env.position - before))
+            near = self.env.distance_to_target() < TRIGGER_RADIUS
+            if near and self._moved_to is not None and self._exception is None:
+                self._exception = {
+                    "type": "target_moved",
+                    "step": self._steps,
+                    "at": self.env.position.tolist(),
+                    "to": self._moved_to.tolist(),
+                }
+                self.env.move_target(self._moved_to)
+                self._obs = self.env._obs()  # the effect is observable in this very reply
+                events.append({"event": "exception", **self._exception})
+                reached = False
+            if reached:
+                self._reached_step = self._steps
+                return StepOutcome(
+                    observation=self.observe(),
+                    action=ActionResult(applied=True, ok=True),
+                    episode_over=True,
+                    end_reason="completed",
+                    events=({"event": "task_completed", "step": self._steps},),
+                )
+        return StepOutcome(
+            observation=self.observe(),
+            action=ActionResult(applied=True, ok=True),
+            events=tuple(events),
+        )
+
+    def sim_state(self) -> bytes:
+        return self.env.get_state()
+
+    def state_hash(self) -> str:
+        return self.env.state_hash()
+
+    def outcome(self) -> dict[str, Any]:
+        return {
+            "target_initial": self._target.tolist(),
+            "target_final": self.env.target.tolist(),
+            "exception": self._exception,
+            "reached": self._reached_step is not None,
+            "reached_step": self._reached_step,
+            "found_in_explore": self._found_in_explore,
+            "reach_start": self._reach_start,
+            "reach_path": self._reach_path,
+            "collisions": self.env.collisions,
+            "sim_warnings": self.env.sim_warnings,
+            "steps": self._steps,
+        }
+
+    def close(self) -> None:
+        self.env.close()
+
+
+def _target_error(model: WorldModel | None, truth: list[float] | None) -> float | None:
+    if model is None or truth is None:
+        return None
+    for obj in model.objects:
+        if str(obj.id) == "target" and obj.position is not None:
+            return float(np.linalg.norm(np.asarray(obj.position) - np.asarray(truth)))
+    return None
+
+
+def _closeness(err: float | None) -> float:
+    return 0.0 if err is None else max(0.0, 1.0 - err / MODEL_TOLERANCE)
+
+
+class SanityTrack(TrackPlugin):
+    name = "sanity"
+    title = "Sanity: find and reach a target in an arena (pipeline checks)"
+    weights = {"task": 0.40, "model": 0.20, "recovery": 0.20, "efficiency": 0.10, "safety": 0.10}
+    files = {
+        "world_model.json": FileRule(WorldModel),
+        "episode_log.jsonl": FileRule(None, jsonl=True),
+    }
+    splits = {
+        "standard": (0.6, {"exception_probability": 0.5}),
+        "challenge": (0.4, {"exception_probability": 1.0}),
+    }
+
+    def stages(self) -> list[StageSpec]:
+        return [
+            StageSpec("explore", budget_s=60.0, description="find the target and map it"),
+            StageSpec("reach", budget_s=60.0, description="drive onto the target"),
+        ]
+
+    def make_scenario(self, *, seed: int, split: str, params: Mapping[str, Any]) -> Scenario:
+        from simhost.sanity import sample_point
+
+        merged = {**self.splits.get(split, (1.0, {}))[1], **params}
+        rng = np.random.default_rng(seed)
+        start = sample_point(rng)
+        target = sample_point(rng)
+        while np.linalg.norm(target - start) < 1.5:
+            target = sample_point(rng)
+        moved = None
+        if rng.random() < float(merged.get("exception_probability", 0.5)):
+            moved = sample_point(rng)
+            while np.linalg.norm(moved - target) < 1.0:
+                moved = sample_point(rng)
+        return Scenario(
+            track=self.name,
+            split=split,
+            seed=seed,
+            params={
+                "start": start.tolist(),
+                "target": target.tolist(),
+                "moved_target": None if moved is None else moved.tolist(),
+            },
+        )
+
+    def make_episode(self, scenario: Scenario) -> TrackEpisode:
+        return SanityEpisode(scenario)
+
+    def score(self, data: ScoringInput) -> ScoreCard:
+        o = data.outcome
+        exc = o.get("exception")
+        final_model = data.files.get("world_model.json")
+        explore_model = data.snapshots.get("explore", {}).get("world_model.json")
+        log = data.files.get("episode_log.jsonl") or []
+        reached = bool(o.get("reached"))
+
+        explore_err = _target_error(explore_model, o.get("target_initial"))
+        subgoals = [bool(o.get("found_in_explore")), explore_err is not None and explore_err < 0.3,
+                    reached]
+        task = 0.6 * reached + 0.4 * float(np.mean(subgoals))
+
+        model = _closeness(explore_err)
+        if exc is not None:
+            model = 0.5 * model + 0.5 * _closeness(_target_error(final_model, o["target_final"]))
+
+        components = {"task": task, "model": model}
+        weights = dict(self.weights)
+        notes: list[str] = []
+        if exc is not None:
+            detected = any(
+                r.event == "exception_detected"
+                and r.exception_type == "target_moved"
+                and exc["step"] <= r.step <= exc["step"] + DETECT_WINDOW
+                for r in log
+            )
+            updated = _closeness(_target_error(final_model, o["target_final"])) > 0.4
+            components["recovery"] = (detected + updated + reached) / 3
+        else:
+            # No exception: its weight is spread over the other components in proportion.
+            w = weights.pop("recovery")
+            rest = sum(weights.values())
+            weights = {k: v + w * v / rest for k, v in weights.items()}
+            notes.append("no exception in this episode: recovery weight redistributed")
+
+        start = o.get("reach_start")
+        if reached and start is not None:
+            if exc is None:
+                optimal = float(np.linalg.norm(np.subtract(o["target_final"], start)))
+            else:
+                optimal = float(np.linalg.norm(np.subtract(exc["at"], start))) + float(
+                    np.linalg.norm(np.subtract(o["target_final"], exc["at"]))
+                )
+            components["efficiency"] = optimal / max(optimal, o["reach_path"], 1e-9)
+        else:
+            components["efficiency"] = 0.0
+
+        steps = max(1, data.steps)
+        bad = data.invalid_actions + data.protocol_errors + int(o.get("collisions", 0))
+        components["safety"] = max(0.0, 1.0 - 4.0 * bad / steps) if data.steps else 0.0
+
+        total = float(sum(weights[k] * components[k] for k in weights))
+        metrics = {
+            "task_success": float(reached),
+            "model_verification": model,
+            "invalid_actions": float(data.invalid_actions + data.protocol_errors),
+        }
+        if "recovery" in components:
+            metrics["recovery"] = components["recovery"]
+        return ScoreCard(
+            track=self.name,
+            total=min(1.0, max(0.0, total)),
+            components=components,
+            weights=weights,
+            metrics=metrics,
+            notes=tuple(notes),
+        )

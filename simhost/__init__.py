@@ -1,0 +1,46 @@
+"""MuJoCo environments, the sim host that serves an episode over Zenoh, and the agent client.
+
+Nothing heavy is imported here: team containers ``import simhost.agent`` with only pydantic,
+eclipse-zenoh and numpy installed. Names below load their module on first use.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+_EXPORTS = {
+    "RemoteEnv": "simhost.agent",
+    "TimeStep": "simhost.agent",
+    "HostError": "simhost.agent",
+    "SimHost": "simhost._host",
+    "HostConfig": "simhost._host",
+    "HostOutcome": "simhost._host",
+    "EpisodeRecorder": "simhost._host",
+    "TrackEpisode": "simhost._episode",
+    "StageSpec": "simhost._episode",
+    "Observation": "simhost._episode",
+    "StepOutcome": "simhost._episode",
+    "ActionError": "simhost._actions",
+    "check_action": "simhost._actions",
+    "McapRecorder": "simhost._mcap",
+    "encode_png": "simhost._png",
+    "write_png": "simhost._png",
+}
+
+__all__ = sorted(_EXPORTS)
+
+if TYPE_CHECKING:
+    from simhost._actions import ActionError, check_action
+    from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
+    from simhost._host import EpisodeRecorder, HostConfig, HostOutcome, SimHost
+    from simhost._mcap import McapRecorder
+    from simhost._png import encode_png, write_png
+    from simhost.agent import HostError, RemoteEnv, TimeStep
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'simhost' has no attribute {name!r}")
+    return getattr(importlib.import_module(module), name)

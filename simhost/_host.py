@@ -1,0 +1,447 @@
+"""``SimHost``: serves one episode of a track to one agent over Zenoh (DESIGN §3).
+
+Requests arrive on ``eagc/v1/<episode>/agent/req`` and each gets exactly one reply on
+``…/rep``. They are handled on Zenoh's callback thread (no hand-off, so a step costs one
+publish each way); ``serve()`` on the caller's thread keeps the clock: the startup budget,
+the stages' wall-clock budgets, the agent's liveliness and the caller's stop event.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+import time
+import traceback
+from collections import Counter
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zenoh
+
+from schemas._protocol import (
+    PROTOCOL_VERSION,
+    ActionResult,
+    Answer,
+    EndStage,
+    ErrorReply,
+    Hello,
+    HelloReply,
+    HostMessage,
+    ObservationReply,
+    Reset,
+    StageInfo,
+    Step,
+)
+from simhost import _transport
+from simhost._actions import ActionError, check_action
+from simhost._episode import Observation, StageEnd, StageSpec, StepOutcome, TrackEpisode
+from simhost._wire import WireError, decode_request, encode
+
+log = logging.getLogger("eagc.simhost")
+
+
+class EpisodeRecorder:
+    """Receives what happens in an episode (the MCAP logger implements it). No-op default."""
+
+    def request(self, t: float, kind: str, msg: Any, tensors: Mapping[str, np.ndarray]) -> None:
+        """A request that passed the protocol checks."""
+
+    def reply(self, t: float, reply: Any, obs: Observation | None) -> None:
+        """A reply sent to the agent."""
+
+    def event(self, t: float, name: str, data: Mapping[str, Any]) -> None:
+        """A stage, exception, protocol-error or lifecycle event."""
+
+    def state(self, t: float, step: int, state_hash: str, state: bytes | None) -> None:
+        """The simulator state after a step (full ``state`` every few steps)."""
+
+
+@dataclass(frozen=True)
+class HostConfig:
+    """How one episode is served."""
+
+    episode: str
+    track: str
+    endpoints: tuple[str, ...]
+    socket_path: Path | None = None
+    time_scale: float = 1.0
+    max_steps_per_stage: int | None = None
+    startup_s: float = 120.0
+    max_request_bytes: int = 1 << 20
+    max_protocol_errors: int = 1000
+    full_state_every: int = 100
+
+
+@dataclass
+class HostOutcome:
+    """How the episode ended, from the host's side."""
+
+    end_reason: str = "not_started"
+    stages_reached: list[str] = field(default_factory=list)
+    stage_ends: dict[str, str] = field(default_factory=dict)
+    stage_durations_s: dict[str, float] = field(default_factory=dict)
+    steps: int = 0
+    invalid_actions: int = 0
+    protocol_errors: Counter[str] = field(default_factory=Counter)
+    latencies_s: list[float] = field(default_factory=list)
+    agent_seen: bool = False
+    hello_at: float | None = None
+    internal_error: str | None = None
+    sim_warnings: int = 0
+
+    @property
+    def last_stage(self) -> str | None:
+        return self.stages_reached[-1] if self.stages_reached else None
+
+
+class SimHost:
+    """Serves one episode.
+
+    Args:
+        episode: the track's live episode (world and rules).
+        stages: the track's stages with their official budgets.
+        config: endpoints, limits and the episode id.
+        recorder: where events go (MCAP); optional.
+        on_stage_end: called (on the host's thread, before the next stage starts) with the
+            name of a stage that ended, e.g. to snapshot ``/output``.
+    """
+
+    def __init__(
+        self,
+        episode: TrackEpisode,
+        stages: list[StageSpec],
+        config: HostConfig,
+        *,
+        recorder: EpisodeRecorder | None = None,
+        on_stage_end: Callable[[str], None] | None = None,
+    ) -> None:
+        if not stages:
+            raise ValueError("a track needs at least one stage")
+        self.episode = episode
+        self.stages = stages
+        self.config = config
+        self.recorder = recorder or EpisodeRecorder()
+        self._on_stage_end = on_stage_end
+        self.outcome = HostOutcome()
+        self._lock = threading.RLock()
+        self._wake = threading.Condition(self._lock)
+        self._phase = "hello"  # hello → reset → running → over
+        self._seq = 0
+        self._stage = -1
+        self._stage_started = 0.0
+        self._stage_deadline = float("inf")
+        self._stage_steps = 0
+        self._pending: list[HostMessage] = []
+        self._last_reply_at: float | None = None
+        self._agent_lost = False
+        self._session: zenoh.Session | None = None
+        self._pub: Any = None
+        self._subs: list[Any] = []
+        self._hello_reply: bytes | None = None
+        self._t0 = time.monotonic()
+
+    # ----------------------------------------------------------------- lifecycle
+    def open(self) -> None:
+        """Opens the Zenoh session and starts listening; the agent may connect from now."""
+        keys = _transport.keys(self.config.episode)
+        conf = _transport.host_config(self.config.episode, list(self.config.endpoints))
+        self._session = zenoh.open(conf)
+        if self.config.socket_path is not None:
+            # The container's non-root uid must be able to connect.
+            os.chmod(self.config.socket_path, 0o666)
+        self._pub = self._session.declare_publisher(
+            keys["rep"], congestion_control=zenoh.CongestionControl.BLOCK, express=True
+        )
+        self._subs.append(self._session.declare_subscriber(keys["req"], self._on_request))
+        self._subs.append(
+            self._session.liveliness().declare_subscriber(
+                keys["alive"], self._on_liveliness, history=True
+            )
+        )
+        self._t0 = time.monotonic()
+        self.recorder.event(0.0, "host_open", {"episode": self.config.episode})
+
+    def close(self) -> None:
+        for sub in self._subs:
+            try:
+                sub.undeclare()
+            except Exception:  # noqa: BLE001 - closing must not raise
+                pass
+        self._subs.clear()
+        if self._session is not None:
+            self._session.close()
+            self._session = None
+
+    def serve(self, stop: threading.Event | None = None, poll_s: float = 0.05) -> HostOutcome:
+        """Runs the episode's clock until it ends; returns how it ended."""
+        if self._session is None:
+            self.open()
+        stop = stop or threading.Event()
+        startup_deadline = time.monotonic() + self.config.startup_s
+        with self._lock:
+            while self._phase != "over":
+                now = time.monotonic()
+                if stop.is_set():
+                    self._finish("stopped", "stopped")
+                    break
+                if self._agent_lost and self.outcome.agent_seen:
+                    self._finish("agent_lost", "stopped")
+                    break
+                if self._phase in ("hello", "reset") and now > startup_deadline:
+                    self._finish("startup_timeout", "stopped")
+                    break
+                if self._phase == "running" and now >= self._stage_deadline:
+                    self._advance("budget")
+                    continue
+                wait = poll_s
+                if self._phase == "running":
+                    wait = min(wait, max(0.0, self._stage_deadline - now))
+                self._wake.wait(timeout=wait)
+        return self.outcome
+
+    # ------------------------------------------------------------------ callbacks
+    def _on_liveliness(self, sample: zenoh.Sample) -> None:
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.PUT:
+                self.outcome.agent_seen = True
+                self._agent_lost = False
+                self._event("agent_alive", {})
+            else:
+                self._agent_lost = True
+                self._event("agent_lost", {})
+            self._wake.notify_all()
+
+    def _on_request(self, sample: zenoh.Sample) -> None:
+        received = time.monotonic()
+        buf = sample.payload.to_bytes()
+        with self._lock:
+            try:
+                reply = self._handle(buf, received)
+            except Exception as e:  # noqa: BLE001 - a host bug must still answer and be recorded
+                self.outcome.internal_error = "".join(traceback.format_exception(e))
+                log.exception("internal error while serving episode %s", self.config.episode)
+                reply = self._error("internal", f"host error: {type(e).__name__}", fatal=True)
+                self._finish("internal_error", "stopped")
+            self._pub.put(reply)
+            self._last_reply_at = time.monotonic()
+            self._wake.notify_all()
+
+    # ------------------------------------------------------------------- handling
+    def _error(self, code: str, message: str, *, fatal: bool = False) -> bytes:
+        self.outcome.protocol_errors[code] += 1
+        self._event("protocol_error", {"code": code, "message": message, "fatal": fatal})
+        if (
+            not fatal
+            and sum(self.outcome.protocol_errors.values()) >= self.config.max_protocol_errors
+        ):
+            fatal = True
+            message += f" (protocol error limit {self.config.max_protocol_errors} reached)"
+            self._finish("protocol_violation", "stopped")
+        return encode(ErrorReply(seq=self._seq, code=code, message=message, fatal=fatal))
+
+    def _handle(self, buf: bytes, received: float) -> bytes:
+        try:
+            msg, tensors = decode_request(buf, max_bytes=self.config.max_request_bytes)
+        except WireError as e:
+            return self._error(e.code, str(e))
+        if self._phase == "over":
+            return self._error("episode_over", "the episode is over", fatal=True)
+        if isinstance(msg, Hello) and self._phase == "reset" and msg.seq == 0:
+            assert self._hello_reply is not None
+            return self._hello_reply  # a resent hello (its first reply may have been missed)
+        if msg.seq != self._seq:
+            return self._error("stale", f"request seq {msg.seq}, expected {self._seq}")
+        if self._last_reply_at is not None and self._phase == "running":
+            self.outcome.latencies_s.append(received - self._last_reply_at)
+        self.recorder.request(self._now(), msg.kind, msg, tensors)
+        if isinstance(msg, Hello):
+            return self._hello(msg)
+        if self._phase == "hello":
+            return self._error("bad_order", f"{msg.kind} before hello")
+        if isinstance(msg, Reset):
+            if self._phase != "reset":
+                return self._error("bad_order", "reset was already done: one run per episode")
+            return self._reset()
+        if self._phase == "reset":
+            return self._error("bad_order", f"{msg.kind} before reset")
+        # A request that arrives after its stage's budget ran out is not applied.
+        if time.monotonic() >= self._stage_deadline:
+            self._advance("budget")
+            return self._observation(
+                StepOutcome(
+                    observation=self.episode.observe(),
+                    action=ActionResult(applied=False, ok=True, reason="stage ended first"),
+                )
+            )
+        if isinstance(msg, Step):
+            return self._step(msg, tensors)
+        if isinstance(msg, Answer):
+            return self._after(self.episode.answer(self._stage_name, msg.answers))
+        assert isinstance(msg, EndStage)
+        self._advance("agent", msg.payload)
+        return self._observation(StepOutcome(observation=self.episode.observe()))
+
+    def _hello(self, msg: Hello) -> bytes:
+        if self._phase != "hello":
+            return self._error("bad_order", "hello was already done")
+        if msg.protocol != PROTOCOL_VERSION:
+            return self._error(
+                "malformed", f"protocol {msg.protocol!r} not served; this host speaks "
+                f"{PROTOCOL_VERSION}", fatal=True
+            )
+        self.outcome.agent_seen = True
+        self.outcome.hello_at = self._now()
+        self._event("hello", {"agent": msg.agent})
+        self._seq += 1
+        self._phase = "reset"
+        scale = self.config.time_scale
+        reply = HelloReply(
+            seq=self._seq,
+            episode=self.config.episode,
+            track=self.config.track,
+            observation_spec=self.episode.observation_spec,
+            action_spec=self.episode.action_spec,
+            stages=tuple(
+                StageInfo(
+                    name=s.name,
+                    budget_s=s.budget_s * scale,
+                    max_steps=self._step_cap(s),
+                    allows_motion=s.allows_motion,
+                    description=s.description,
+                )
+                for s in self.stages
+            ),
+            max_request_bytes=self.config.max_request_bytes,
+            startup_budget_s=self.config.startup_s,
+        )
+        self._hello_reply = encode(reply)
+        self.recorder.reply(self._now(), reply, None)
+        return self._hello_reply
+
+    def _reset(self) -> bytes:
+        obs = self.episode.reset()
+        self._phase = "running"
+        self._start_stage(0)
+        self._seq += 1
+        return self._observation(StepOutcome(observation=obs), bump=False)
+
+    def _step(self, msg: Step, tensors: Mapping[str, np.ndarray]) -> bytes:
+        try:
+            action = check_action(self.episode.action_spec, msg.action, tensors)
+        except ActionError as e:
+            self.outcome.invalid_actions += 1
+            return self._error("invalid_action", str(e))
+        self.outcome.steps += 1
+        self._stage_steps += 1
+        out = self.episode.step(self._stage_name, action)
+        if out.action is not None and not out.action.ok:
+            self.outcome.invalid_actions += 1
+        self.recorder.state(
+            self._now(),
+            self.outcome.steps,
+            self.episode.state_hash(),
+            self.episode.sim_state()
+            if self.outcome.steps % self.config.full_state_every == 0
+            else None,
+        )
+        return self._after(out)
+
+    def _after(self, out: StepOutcome) -> bytes:
+        for ev in out.events:
+            self._event(str(ev.get("event", "track_event")), ev)
+        if out.episode_over:
+            self._finish(out.end_reason or "completed", "episode_over")
+        else:
+            cap = self._step_cap(self.stages[self._stage])
+            if cap is not None and self._stage_steps >= cap:
+                self._advance("steps")
+        return self._observation(out)
+
+    def _observation(self, out: StepOutcome, *, bump: bool = True) -> bytes:
+        if bump:
+            self._seq += 1
+        messages = tuple(self._pending) + out.messages
+        self._pending.clear()
+        over = self._phase == "over"
+        stage = self.stages[self._stage]
+        cap = self._step_cap(stage)
+        reply = ObservationReply(
+            seq=self._seq,
+            stage=stage.name,
+            stage_index=self._stage,
+            time_left_s=0.0 if over else max(0.0, self._stage_deadline - time.monotonic()),
+            steps_left=None if cap is None else max(0, cap - self._stage_steps),
+            observation=dict(out.observation.data),
+            action=out.action,
+            messages=messages,
+            episode_over=over,
+            end_reason=self.outcome.end_reason if over else None,
+        )
+        self.recorder.reply(self._now(), reply, out.observation)
+        return encode(reply, out.observation.tensors)
+
+    # --------------------------------------------------------------------- stages
+    @property
+    def _stage_name(self) -> str:
+        return self.stages[self._stage].name
+
+    def _step_cap(self, stage: StageSpec) -> int | None:
+        caps = [c for c in (stage.max_steps, self.config.max_steps_per_stage) if c is not None]
+        return min(caps) if caps else None
+
+    def _start_stage(self, index: int) -> None:
+        self._stage = index
+        stage = self.stages[index]
+        self._stage_started = time.monotonic()
+        self._stage_deadline = self._stage_started + stage.budget_s * self.config.time_scale
+        self._stage_steps = 0
+        self.outcome.stages_reached.append(stage.name)
+        self._event("stage_start", {"stage": stage.name, "index": index})
+        self._pending.append(
+            HostMessage(
+                type="stage_started",
+                data={"stage": stage.name, "index": index, "allows_motion": stage.allows_motion},
+            )
+        )
+        self._pending.extend(self.episode.on_stage_start(stage.name))
+
+    def _end_stage(self, ended_by: StageEnd, payload: Mapping[str, Any]) -> None:
+        name = self._stage_name
+        self.outcome.stage_ends[name] = ended_by
+        self.outcome.stage_durations_s[name] = time.monotonic() - self._stage_started
+        self._event("stage_end", {"stage": name, "ended_by": ended_by})
+        for ev in self.episode.on_stage_end(name, ended_by=ended_by, payload=payload):
+            self._event(str(ev.get("event", "track_event")), ev)
+        if self._on_stage_end is not None:
+            self._on_stage_end(name)
+
+    def _advance(self, ended_by: StageEnd, payload: Mapping[str, Any] | None = None) -> None:
+        self._end_stage(ended_by, payload or {})
+        if self._stage + 1 < len(self.stages):
+            self._start_stage(self._stage + 1)
+        else:
+            self._phase = "over"
+            self.outcome.end_reason = "completed" if ended_by == "agent" else ended_by
+            self._event("episode_end", {"reason": self.outcome.end_reason})
+        self._wake.notify_all()
+
+    def _finish(self, reason: str, ended_by: StageEnd) -> None:
+        if self._phase == "over":
+            return
+        if self._phase == "running":
+            self._end_stage(ended_by, {})
+        self._phase = "over"
+        self.outcome.end_reason = reason
+        self._event("episode_end", {"reason": reason})
+        self._wake.notify_all()
+
+    # ---------------------------------------------------------------------- utils
+    def _now(self) -> float:
+        return time.monotonic() - self._t0
+
+    def _event(self, name: str, data: Mapping[str, Any]) -> None:
+        self.recorder.event(self._now(), name, data)

@@ -1,0 +1,228 @@
+"""The agent-side client a team's container imports: ``from simhost.agent import RemoteEnv``.
+
+Needs only pydantic, eclipse-zenoh and numpy. One episode, one client::
+
+    env = RemoteEnv()                    # endpoint and episode from EAGC_* variables
+    spec = env.hello(agent="my-team/1.0")
+    ts = env.reset()
+    while not ts.episode_over:
+        ts = env.step({"velocity": [0.5, 0.0]})
+    env.close()
+
+Every call sends one request and returns exactly one reply. Protocol errors (malformed,
+stale, out-of-range, …) raise ``HostError``; an action the world refused is not an error,
+it comes back in ``TimeStep.action`` with ``ok=False`` and a reason.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import zenoh
+
+from schemas._protocol import (
+    PROTOCOL_VERSION,
+    ActionResult,
+    Answer,
+    EndStage,
+    ErrorReply,
+    FieldSpec,
+    Hello,
+    HelloReply,
+    HostMessage,
+    ObservationReply,
+    Reset,
+    StageInfo,
+    Step,
+)
+from simhost import _transport
+from simhost._wire import decode_reply, encode
+
+__all__ = ["HostError", "RemoteEnv", "TimeStep"]
+
+
+class HostError(RuntimeError):
+    """Raised when the host answers a request with an error reply."""
+
+    def __init__(self, code: str, message: str, fatal: bool) -> None:
+        super().__init__(f"[{code}{', fatal' if fatal else ''}] {message}")
+        self.code = code
+        self.fatal = fatal
+
+
+@dataclass(frozen=True)
+class TimeStep:
+    """One reply: the observation and where the episode stands."""
+
+    observation: dict[str, Any]
+    stage: str
+    stage_index: int
+    time_left_s: float
+    steps_left: int | None
+    action: ActionResult | None
+    messages: tuple[HostMessage, ...]
+    episode_over: bool
+    end_reason: str | None
+    seq: int = field(repr=False)
+
+    def message(self, type_: str) -> HostMessage | None:
+        """The first host message of a type (e.g. 'instruction', 'queries'), if any."""
+        return next((m for m in self.messages if m.type == type_), None)
+
+
+class RemoteEnv:
+    """Talks to the sim host of one episode.
+
+    Args:
+        endpoint: Zenoh endpoint of the host (default ``$EAGC_ENDPOINT``).
+        episode: The opaque episode id (default ``$EAGC_EPISODE``).
+        timeout_s: How long to wait for a reply before raising ``TimeoutError``
+            (None: wait as long as the host takes).
+    """
+
+    def __init__(
+        self,
+        endpoint: str | None = None,
+        episode: str | None = None,
+        *,
+        timeout_s: float | None = 60.0,
+    ) -> None:
+        endpoint = endpoint or os.environ.get(_transport.ENV_ENDPOINT)
+        episode = episode or os.environ.get(_transport.ENV_EPISODE)
+        if not endpoint or not episode:
+            raise ValueError(
+                f"no endpoint/episode: pass them or set {_transport.ENV_ENDPOINT} and "
+                f"{_transport.ENV_EPISODE} (the evaluator sets both in the container)"
+            )
+        self.episode = episode
+        self._timeout = timeout_s
+        self._keys = _transport.keys(episode)
+        self._session = zenoh.open(_transport.agent_config(endpoint))
+        self._token = self._session.liveliness().declare_token(self._keys["alive"])
+        self._replies: queue.SimpleQueue[bytes] = queue.SimpleQueue()
+        self._sub = self._session.declare_subscriber(
+            self._keys["rep"], lambda sample: self._replies.put(sample.payload.to_bytes())
+        )
+        self._pub = self._session.declare_publisher(
+            self._keys["req"], congestion_control=zenoh.CongestionControl.BLOCK, express=True
+        )
+        self._seq = 0
+        self.spec: HelloReply | None = None
+
+    # ------------------------------------------------------------------ public calls
+    def hello(self, agent: str = "") -> HelloReply:
+        """Opens the episode. The reply holds the observation/action specs and stages."""
+        reply = self._call(Hello(seq=self._seq, protocol=PROTOCOL_VERSION, agent=agent), {},
+                           resend_every_s=1.0)
+        assert isinstance(reply, HelloReply)
+        self.spec = reply
+        return reply
+
+    def reset(self) -> TimeStep:
+        """Starts the first stage."""
+        return self._timestep(self._call(Reset(seq=self._seq), {}))
+
+    def step(self, action: Mapping[str, Any]) -> TimeStep:
+        """Applies one action; numpy arrays travel as binary tensors."""
+        plain: dict[str, Any] = {}
+        tensors: dict[str, np.ndarray] = {}
+        for k, v in action.items():
+            if isinstance(v, np.ndarray) and v.size > 16:
+                tensors[k] = v
+            elif isinstance(v, np.ndarray | np.generic):
+                plain[k] = v.tolist()
+            else:
+                plain[k] = v
+        return self._timestep(self._call(Step(seq=self._seq, action=plain), tensors))
+
+    def answer(self, answers: Mapping[str, Any]) -> TimeStep:
+        """Answers the host's queries (keyed by query id)."""
+        return self._timestep(self._call(Answer(seq=self._seq, answers=dict(answers)), {}))
+
+    def end_stage(self, payload: Mapping[str, Any] | None = None) -> TimeStep:
+        """Ends the current stage early (Track 1: the plan goes in ``payload``)."""
+        return self._timestep(self._call(EndStage(seq=self._seq, payload=dict(payload or {})), {}))
+
+    @property
+    def observation_spec(self) -> tuple[FieldSpec, ...]:
+        return self._require_spec().observation_spec
+
+    @property
+    def action_spec(self) -> tuple[FieldSpec, ...]:
+        return self._require_spec().action_spec
+
+    @property
+    def stages(self) -> tuple[StageInfo, ...]:
+        return self._require_spec().stages
+
+    def close(self) -> None:
+        """Leaves the episode (the host sees the liveliness token go)."""
+        for undeclare in (self._pub, self._sub, self._token):
+            try:
+                undeclare.undeclare()
+            except Exception:  # noqa: BLE001 - closing must not raise
+                pass
+        self._session.close()
+
+    def __enter__(self) -> RemoteEnv:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ internals
+    def _require_spec(self) -> HelloReply:
+        if self.spec is None:
+            raise RuntimeError("call hello() first")
+        return self.spec
+
+    def _call(
+        self, msg: Any, tensors: dict[str, np.ndarray], *, resend_every_s: float | None = None
+    ) -> Any:
+        buf = encode(msg, tensors)
+        self._pub.put(buf)
+        deadline = None if self._timeout is None else time.monotonic() + self._timeout
+        payload = self._wait(buf, deadline, resend_every_s)
+        reply, rtensors = decode_reply(payload)
+        if isinstance(reply, ErrorReply):
+            self._seq = reply.seq
+            raise HostError(reply.code, reply.message, reply.fatal)
+        self._seq = reply.seq
+        self._tensors = rtensors
+        return reply
+
+    def _wait(self, buf: bytes, deadline: float | None, resend_every_s: float | None) -> bytes:
+        while True:
+            wait = None if deadline is None else max(0.0, deadline - time.monotonic())
+            if resend_every_s is not None:
+                wait = resend_every_s if wait is None else min(wait, resend_every_s)
+            try:
+                return self._replies.get(timeout=wait)
+            except queue.Empty:
+                pass
+            if deadline is not None and time.monotonic() >= deadline:
+                raise TimeoutError(f"no reply from the host within {self._timeout} s") from None
+            # Only hello is resent: its subscription may not have reached the host yet.
+            self._pub.put(buf)
+
+    def _timestep(self, reply: ObservationReply) -> TimeStep:
+        obs = dict(reply.observation)
+        obs.update(self._tensors)
+        return TimeStep(
+            observation=obs,
+            stage=reply.stage,
+            stage_index=reply.stage_index,
+            time_left_s=reply.time_left_s,
+            steps_left=reply.steps_left,
+            action=reply.action,
+            messages=reply.messages,
+            episode_over=reply.episode_over,
+            end_reason=reply.end_reason,
+            seq=reply.seq,
+        )

@@ -77,6 +77,10 @@ class McapRecorder(EpisodeRecorder):
         self._schemas = {"json": json_schema, "image": image_schema, "raw": 0}
         self.closed = False
 
+    def now(self) -> float:
+        """Seconds since the log started (the time base of every message)."""
+        return (time.time_ns() - self._wall0) / 1e9
+
     def _channel(self, topic: str, kind: str) -> int:
         if topic not in self._channels:
             encoding = {"json": "json", "image": "json", "raw": "application/octet-stream"}[kind]

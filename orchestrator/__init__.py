@@ -1,0 +1,34 @@
+"""Campaigns and episodes: container runtimes, the episode worker, images, the CLI.
+
+Public API: ``run_episode``, ``EpisodeSpec``, ``DockerRuntime``, ``LocalProcessRuntime``,
+``AgentRuntime``, ``AgentLaunch``, ``AgentHandle``, ``collect``. Names load on first use.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "run_episode": "orchestrator._worker",
+    "EpisodeSpec": "orchestrator._worker",
+    "new_episode_id": "orchestrator._worker",
+    "DockerRuntime": "orchestrator._docker",
+    "LocalProcessRuntime": "orchestrator._local",
+    "AgentRuntime": "orchestrator._runtime",
+    "AgentLaunch": "orchestrator._runtime",
+    "AgentHandle": "orchestrator._runtime",
+    "AgentStartError": "orchestrator._runtime",
+    "InfraError": "orchestrator._runtime",
+    "collect": "orchestrator._collect",
+    "build_all": "orchestrator._images",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'orchestrator' has no attribute {name!r}")
+    return getattr(importlib.import_module(module), name)

@@ -1,0 +1,155 @@
+"""Building images offline: no registry is needed (DESIGN §4, deploy/).
+
+- ``eagc/base:bookworm``: a Debian root with python3 made by ``mmdebstrap`` from the Debian
+  mirror apt already uses, then ``docker import``-ed.
+- ``eagc/agent-base:latest``: the base plus the agent client (this repository's wheel and
+  its three light dependencies: pydantic, eclipse-zenoh, numpy), installed from wheels
+  downloaded on the host with ``pip install --no-index``; built with no network.
+- example agents (``examples/*/Dockerfile``) and test containers built ``FROM`` it.
+
+Each image carries a label with the hash of what it was built from, so a changed client or
+agent is rebuilt and an unchanged one is reused.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+from orchestrator._docker import docker_client
+
+REPO = Path(__file__).resolve().parents[1]
+BASE_IMAGE = "eagc/base:bookworm"
+AGENT_BASE_IMAGE = "eagc/agent-base:latest"
+HASH_LABEL = "eagc.build-hash"
+MIRROR = "http://deb.debian.org/debian"
+CLIENT_SOURCES = ("pyproject.toml", "schemas", "simhost/__init__.py", "simhost/agent.py",
+                  "simhost/_wire.py", "simhost/_transport.py")
+#: Example agents: image tag → folder with a Dockerfile.
+EXAMPLES = {"eagc/sanity-agent:latest": REPO / "examples" / "sanity_agent"}
+
+Say = Callable[[str], None]
+
+
+class ImageBuildError(RuntimeError):
+    """Raised when an image cannot be built; the message says which step and why."""
+
+
+def _hash_paths(paths: Iterable[Path], extra: str = "") -> str:
+    h = hashlib.sha256(extra.encode())
+    for root in paths:
+        files = sorted(p for p in root.rglob("*") if p.is_file()) if root.is_dir() else [root]
+        for f in files:
+            if "__pycache__" in f.parts or f.suffix == ".pyc":
+                continue
+            h.update(str(f.relative_to(REPO) if f.is_relative_to(REPO) else f).encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _label(client: Any, tag: str) -> str | None:
+    import docker
+
+    try:
+        return (client.images.get(tag).labels or {}).get(HASH_LABEL)
+    except docker.errors.ImageNotFound:
+        return None
+
+
+def _run(cmd: list[str], what: str) -> None:
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise ImageBuildError(f"{what} failed ({' '.join(cmd[:3])} …):\n{r.stderr[-3000:]}")
+
+
+def build_base(client: Any, say: Say = print, *, force: bool = False) -> str:
+    """``eagc/base:bookworm`` from Debian packages, with no registry."""
+    want = "bookworm-python3-v1"
+    if not force and _label(client, BASE_IMAGE) == want:
+        return BASE_IMAGE
+    if shutil.which("mmdebstrap") is None:
+        raise ImageBuildError("mmdebstrap is not installed: `apt-get install -y mmdebstrap`")
+    say(f"building {BASE_IMAGE} with mmdebstrap (about 30 s)…")
+    with tempfile.TemporaryDirectory() as tmp:
+        tar = Path(tmp) / "rootfs.tar"
+        _run(["mmdebstrap", "--variant=minbase", "--include=python3,python3-pip,ca-certificates",
+              "bookworm", str(tar), MIRROR], "mmdebstrap")
+        with tar.open("rb") as f:
+            client.api.import_image_from_data(
+                f.read(), repository=BASE_IMAGE.split(":")[0], tag=BASE_IMAGE.split(":")[1],
+                changes=[f'LABEL {HASH_LABEL}="{want}"', 'CMD ["python3"]'],
+            )
+    return BASE_IMAGE
+
+
+def _wheels(dest: Path) -> None:
+    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+          "-w", str(dest), str(REPO)], "building the eagc wheel")
+    _run([sys.executable, "-m", "pip", "download", "-q", "--only-binary=:all:", "-d", str(dest),
+          "pydantic", "eclipse-zenoh", "numpy"], "downloading the client's wheels")
+
+
+def _docker_build(client: Any, context: Path, tag: str, build_hash: str, say: Say) -> str:
+    say(f"building {tag}…")
+    try:
+        image, _ = client.images.build(
+            path=str(context), tag=tag, rm=True, forcerm=True, network_mode="none",
+            labels={HASH_LABEL: build_hash},
+        )
+    except Exception as e:  # noqa: BLE001 - docker.errors.BuildError carries the log
+        logs = "".join(
+            str(chunk.get("stream", "")) for chunk in getattr(e, "build_log", []) or []
+        )
+        raise ImageBuildError(f"docker build of {tag} failed: {e}\n{logs[-3000:]}") from e
+    return str(image.id)
+
+
+def build_agent_base(client: Any, say: Say = print, *, force: bool = False) -> str:
+    """``eagc/agent-base:latest``: the base plus the agent client, built with no network."""
+    build_base(client, say, force=False)
+    want = _hash_paths([REPO / p for p in CLIENT_SOURCES], extra=str(_label(client, BASE_IMAGE)))
+    if not force and _label(client, AGENT_BASE_IMAGE) == want:
+        return AGENT_BASE_IMAGE
+    with tempfile.TemporaryDirectory() as tmp:
+        ctx = Path(tmp)
+        _wheels(ctx / "wheels")
+        (ctx / "Dockerfile").write_text(
+            f"FROM {BASE_IMAGE}\n"
+            "COPY wheels /tmp/wheels\n"
+            "RUN python3 -m pip install --no-cache-dir --break-system-packages --no-index "
+            "--find-links /tmp/wheels eagc && rm -rf /tmp/wheels\n"
+            "ENV HOME=/tmp PYTHONDONTWRITEBYTECODE=1\n"
+            "USER 10001:10001\n"
+        )
+        _docker_build(client, ctx, AGENT_BASE_IMAGE, want, say)
+    return AGENT_BASE_IMAGE
+
+
+def build_folder(client: Any, folder: Path, tag: str, say: Say = print, *,
+                 force: bool = False) -> str:
+    """Builds an agent folder (a Dockerfile ``FROM eagc/agent-base``) with no network."""
+    want = _hash_paths([folder], extra=str(_label(client, AGENT_BASE_IMAGE)))
+    if not force and _label(client, tag) == want:
+        return tag
+    _docker_build(client, folder, tag, want, say)
+    return tag
+
+
+def build_all(say: Say = print, *, force: bool = False, client: Any | None = None) -> list[str]:
+    """Base, agent base and every example agent. Returns the tags."""
+    client = client or docker_client()
+    tags = [build_base(client, say, force=force), build_agent_base(client, say, force=force)]
+    for tag, folder in EXAMPLES.items():
+        tags.append(build_folder(client, folder, tag, say, force=force))
+    return tags
+
+
+def image_id(client: Any, tag: str) -> str:
+    """The pinned digest of a local image (its ID, where no registry is at hand)."""
+    return str(client.images.get(tag).id)

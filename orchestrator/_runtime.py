@@ -1,0 +1,95 @@
+"""The container runtime interface: how an agent is started, watched and stopped.
+
+``DockerRuntime`` is the only runtime for official runs. ``LocalProcessRuntime`` runs the
+agent as a plain process for development, without a sandbox, and says so loudly.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from schemas import ContainerExit, Limits
+
+#: Where the container sees its folders (the container contract; see README).
+CONTAINER_SOCKET_DIR = "/run/eagc"
+CONTAINER_OUTPUT = "/output"
+CONTAINER_INPUT = "/input"
+SOCKET_NAME = "zenoh.sock"
+AGENT_UID = 10001
+LABEL_PREFIX = "eagc"
+
+
+class RuntimeErrorBase(RuntimeError):
+    """Root of the runtime errors."""
+
+
+class AgentStartError(RuntimeErrorBase):
+    """Raised when the agent's image cannot be started for a reason of its own (agent failure):
+    the image is missing, its command does not exist, …"""
+
+
+class InfraError(RuntimeErrorBase):
+    """Raised when the engine or the host failed (infrastructure failure, retried)."""
+
+
+@dataclass(frozen=True)
+class AgentLaunch:
+    """Everything needed to start one agent for one episode."""
+
+    image: str
+    episode: str
+    socket_dir: Path
+    output_dir: Path
+    limits: Limits
+    input_dir: Path | None = None
+    labels: Mapping[str, str] = field(default_factory=dict)
+
+    def environment(self, *, socket_dir: str, output_dir: str, input_dir: str | None) -> dict[str, str]:
+        """The agent's environment: the endpoint, the opaque episode id, its folders. Nothing else."""
+        env = {
+            "EAGC_ENDPOINT": f"unixsock-stream/{socket_dir}/{SOCKET_NAME}",
+            "EAGC_EPISODE": self.episode,
+            "EAGC_OUTPUT": output_dir,
+            "HOME": "/tmp",
+            "PYTHONUNBUFFERED": "1",
+        }
+        if input_dir is not None:
+            env["EAGC_INPUT"] = input_dir
+        return env
+
+
+class AgentHandle(ABC):
+    """A started agent."""
+
+    id: str
+
+    @abstractmethod
+    def wait(self, timeout: float | None) -> bool:
+        """Waits until the agent exits; True if it has."""
+
+    @abstractmethod
+    def stop(self) -> ContainerExit:
+        """Kills whatever still runs, reads how it ended and releases everything.
+
+        Idempotent: later calls return the same ``ContainerExit``.
+        """
+
+
+class AgentRuntime(ABC):
+    """Starts agents."""
+
+    #: Name shown in results.
+    name: str
+    #: Only official runtimes may be used in a non-local campaign.
+    official: bool
+
+    @abstractmethod
+    def start(self, launch: AgentLaunch) -> AgentHandle:
+        """Starts the agent. Raises AgentStartError (agent failure) or InfraError."""
+
+    def cleanup(self, labels: Mapping[str, str] | None = None) -> list[str]:
+        """Removes agents left behind by a dead worker; returns what it removed."""
+        return []

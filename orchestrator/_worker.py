@@ -1,0 +1,344 @@
+"""The episode worker: scenario → sim host → agent → /output → checks → score → result.
+
+``run_episode`` never raises for something an agent or the engine did: every ending is an
+``EpisodeResult`` with a status. Agent failures (crash, OOM, timeout, protocol violation, bad
+files, never started) come from the engine's own state and the host's clock, never from what
+the agent printed; infrastructure failures (engine or host errors) are ``infra_error`` and may
+be retried by the caller.
+
+Episode folder (organizer side; the agent sees only ``sock/``, ``output/`` and ``input/``)::
+
+    <runs>/<episode>/sock/zenoh.sock     mounted read-only at /run/eagc
+    <runs>/<episode>/output/             mounted at /output (size-capped tmpfs when root)
+    <runs>/<episode>/input/              mounted read-only at /input, when the track has inputs
+    <runs>/<episode>/host/               episode.mcap, result.json, snapshots/, agent.log
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import secrets
+import shutil
+import threading
+import time
+import traceback
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from orchestrator._collect import collect, mount_output, unmount_output
+from orchestrator._runtime import (
+    AGENT_UID,
+    SOCKET_NAME,
+    AgentHandle,
+    AgentLaunch,
+    AgentRuntime,
+    AgentStartError,
+)
+from plugins import Scenario, ScoringInput, TrackPlugin, load_track
+from schemas import (
+    ContainerExit,
+    EpisodeResult,
+    EpisodeStats,
+    EpisodeStatus,
+    FailureReport,
+    FileCheck,
+    Limits,
+    ScoreCard,
+)
+from simhost._host import HostConfig, HostOutcome, SimHost
+from simhost._mcap import McapRecorder
+
+log = logging.getLogger("eagc.worker")
+
+MAX_SOCKET_PATH = 100  # AF_UNIX paths are limited to 108 bytes
+
+
+@dataclass(frozen=True)
+class EpisodeSpec:
+    """One episode to run. The seed is hidden: it never reaches the agent."""
+
+    track: str
+    image: str
+    seed: int
+    split: str = "standard"
+    params: Mapping[str, Any] = field(default_factory=dict)
+    limits: Limits = Limits()
+    runs_dir: Path = Path("runs")
+    labels: Mapping[str, str] = field(default_factory=dict)
+    episode: str | None = None
+    exit_grace_s: float = 10.0
+
+
+def new_episode_id() -> str:
+    """An opaque id: nothing about the campaign, split, seed or team."""
+    return "ep" + secrets.token_hex(8)
+
+
+def _zero_card(plugin: TrackPlugin, note: str) -> ScoreCard:
+    return ScoreCard(
+        track=plugin.name,
+        total=0.0,
+        components={k: 0.0 for k in plugin.weights},
+        weights=dict(plugin.weights),
+        notes=(note,),
+    )
+
+
+class _Snapshots:
+    """Copies /output's files at every stage end (and at exit) into the host folder."""
+
+    def __init__(self, output: Path, host: Path, limits: Limits, recorder: McapRecorder) -> None:
+        self.output = output
+        self.dir = host / "snapshots"
+        self.limits = limits
+        self.recorder = recorder
+        self.by_stage: dict[str, dict[str, bytes]] = {}
+
+    def take(self, stage: str) -> dict[str, bytes]:
+        got = collect(
+            self.output,
+            max_file_bytes=self.limits.output_file_mb << 20,
+            max_total_bytes=self.limits.output_mb << 20,
+        )
+        self.by_stage[stage] = got.files
+        folder = self.dir / stage
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, blob in got.files.items():
+            (folder / name).write_bytes(blob)
+            self.recorder.write_raw(f"/eagc/file/{stage}/{name}", self.recorder.now(), blob)
+        return got.files
+
+
+def _classify(
+    outcome: HostOutcome, exit_: ContainerExit, limits: Limits, checks: list[FileCheck]
+) -> tuple[EpisodeStatus, str | None, str]:
+    """(status, limit hit, message) from the host's clock and the engine's state."""
+    reason = outcome.end_reason
+    stage = outcome.last_stage or "startup"
+    if outcome.internal_error:
+        return EpisodeStatus.INFRA_ERROR, None, "the sim host failed (not the agent's fault)"
+    if exit_.oom_killed:
+        return (EpisodeStatus.AGENT_OOM, f"memory {limits.memory_mb} MiB",
+                f"the container was killed for exceeding its memory limit during {stage!r}")
+    if reason == "protocol_violation":
+        return (EpisodeStatus.AGENT_PROTOCOL, f"{limits.max_protocol_errors} protocol errors",
+                "too many malformed or invalid requests")
+    if reason in ("stopped", "agent_lost"):
+        how = "exited" if exit_.exit_code is not None else "disconnected"
+        return (EpisodeStatus.AGENT_CRASH, None,
+                f"the agent {how} (exit code {exit_.exit_code}) before the episode ended, "
+                f"during {stage!r}")
+    if reason == "startup_timeout":
+        if outcome.agent_seen:
+            msg = "the agent said hello but did not reset within the startup budget"
+        else:
+            msg = "the agent never connected within the startup budget"
+        return EpisodeStatus.AGENT_TIMEOUT, f"startup {limits.startup_s:g} s", msg
+    if reason == "budget":
+        return (EpisodeStatus.AGENT_TIMEOUT, f"stage budget of {stage!r}",
+                f"the last stage {stage!r} ran out of time before the agent finished")
+    if reason == "steps":
+        return (EpisodeStatus.AGENT_TIMEOUT, f"step cap of {stage!r}",
+                f"the last stage {stage!r} ran out of steps before the agent finished")
+    bad = [c for c in checks if not c.ok]
+    if bad:
+        return (EpisodeStatus.AGENT_BAD_FILES, None,
+                "; ".join(f"{c.name}: {c.reason.splitlines()[0]}" for c in bad))
+    return EpisodeStatus.COMPLETED, None, "completed"
+
+
+def _latency(outcome: HostOutcome) -> tuple[float | None, float | None]:
+    if not outcome.latencies_s:
+        return None, None
+    arr = np.asarray(outcome.latencies_s) * 1000
+    return float(np.median(arr)), float(np.percentile(arr, 99))
+
+
+def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
+    """Runs one episode to the end and returns its result; never raises for agent faults."""
+    started = time.time()
+    plugin = load_track(spec.track)
+    episode_id = spec.episode or new_episode_id()
+    root = spec.runs_dir.resolve() / episode_id
+    sock_dir, output, host_dir = root / "sock", root / "output", root / "host"
+    socket_path = sock_dir / SOCKET_NAME
+    if len(str(socket_path)) > MAX_SOCKET_PATH:
+        raise ValueError(
+            f"socket path {socket_path} is longer than {MAX_SOCKET_PATH} bytes (a unix socket "
+            "limit): choose a shorter runs folder"
+        )
+    for d in (sock_dir, host_dir):
+        d.mkdir(parents=True, exist_ok=True)
+    sock_dir.chmod(0o755)
+    mounted = mount_output(output, spec.limits.output_mb, AGENT_UID)
+
+    recorder = McapRecorder(host_dir / "episode.mcap")
+    snapshots = _Snapshots(output, host_dir, spec.limits, recorder)
+    host: SimHost | None = None
+    handle: AgentHandle | None = None
+    exit_ = ContainerExit()
+    outcome = HostOutcome()
+    scenario: Scenario | None = None
+    infra: str | None = None
+    no_start: str | None = None
+    input_dir: Path | None = None
+    try:
+        scenario = plugin.make_scenario(seed=spec.seed, split=spec.split, params=spec.params)
+        recorder.write_json("/eagc/scenario", 0.0, {
+            "episode": episode_id, "track": spec.track, "split": spec.split, "seed": spec.seed,
+            "image": spec.image, "params": scenario.params, "limits": spec.limits.model_dump(),
+        })
+        staged = root / "input"
+        staged.mkdir()
+        plugin.write_inputs(scenario, staged)
+        if any(staged.iterdir()):
+            input_dir = staged
+        episode = plugin.make_episode(scenario)
+        host = SimHost(
+            episode,
+            plugin.stages(),
+            HostConfig(
+                episode=episode_id,
+                track=spec.track,
+                endpoints=(f"unixsock-stream/{socket_path}",),
+                socket_path=socket_path,
+                time_scale=spec.limits.time_scale,
+                max_steps_per_stage=spec.limits.max_steps_per_stage,
+                startup_s=spec.limits.startup_s,
+                max_request_bytes=spec.limits.max_request_kb * 1024,
+                max_protocol_errors=spec.limits.max_protocol_errors,
+            ),
+            recorder=recorder,
+            on_stage_end=snapshots.take,
+        )
+        host.open()
+        launch = AgentLaunch(
+            image=spec.image, episode=episode_id, socket_dir=sock_dir, output_dir=output,
+            input_dir=input_dir, limits=spec.limits, labels=spec.labels,
+        )
+        try:
+            handle = runtime.start(launch)
+        except AgentStartError as e:
+            no_start = str(e)
+        if handle is not None:
+            stop = threading.Event()
+            exited = threading.Event()
+
+            def watch(h: AgentHandle = handle) -> None:
+                h.wait(None)
+                exited.set()
+                stop.set()
+
+            threading.Thread(target=watch, daemon=True, name=f"watch-{episode_id}").start()
+            outcome = host.serve(stop)
+            if outcome.end_reason not in ("stopped",) and not exited.is_set():
+                # Let the agent write its last files and leave on its own.
+                handle.wait(spec.exit_grace_s)
+            exit_ = handle.stop()
+            if outcome.end_reason == "stopped" and exit_.exit_code is not None:
+                exit_ = exit_.model_copy(update={"exited_early": True})
+            if outcome.internal_error:
+                infra = outcome.internal_error
+    except Exception as e:  # noqa: BLE001 - the result must be recorded whatever happened
+        infra = "".join(traceback.format_exception(e))
+        log.error("episode %s: infrastructure failure\n%s", episode_id, infra)
+    finally:
+        if handle is not None:
+            try:
+                exit_ = handle.stop()
+            except Exception as e:  # noqa: BLE001
+                infra = infra or f"could not stop the agent: {e}"
+        if host is not None:
+            host.close()
+            try:
+                host.episode.close()
+            except Exception:  # noqa: BLE001
+                pass
+
+    # ------------------------------------------------------------ files and score
+    final = collect(output, max_file_bytes=spec.limits.output_file_mb << 20,
+                    max_total_bytes=spec.limits.output_mb << 20)
+    snapshots.by_stage["final"] = final.files
+    parsed, checks = plugin.verify_files(final.files)
+    checks = checks + final.refused
+    snap_parsed = {stage: plugin.parse_snapshot(files)
+                   for stage, files in snapshots.by_stage.items() if stage != "final"}
+
+    if infra is not None:
+        status, limit, message = EpisodeStatus.INFRA_ERROR, None, infra.strip().splitlines()[-1]
+    elif no_start is not None:
+        status, limit, message = EpisodeStatus.AGENT_NO_START, None, no_start
+    else:
+        status, limit, message = _classify(outcome, exit_, spec.limits, checks)
+
+    episode_outcome: dict[str, Any] = {}
+    if host is not None:
+        try:
+            episode_outcome = host.episode.outcome()
+        except Exception as e:  # noqa: BLE001
+            log.error("episode %s: outcome() failed: %s", episode_id, e)
+    if status in (EpisodeStatus.AGENT_NO_START, EpisodeStatus.INFRA_ERROR) or scenario is None:
+        score = _zero_card(plugin, f"not scored: {status.value}")
+    else:
+        score = plugin.score(ScoringInput(
+            scenario=scenario, status=status, end_reason=outcome.end_reason,
+            stages_reached=tuple(outcome.stages_reached), outcome=episode_outcome,
+            files=parsed, snapshots=snap_parsed, steps=outcome.steps,
+            invalid_actions=outcome.invalid_actions,
+            protocol_errors=sum(
+                n for code, n in outcome.protocol_errors.items() if code != "invalid_action"
+            ),
+        ))
+        if status.failure_kind == "agent":
+            score = score.model_copy(update={"notes": (*score.notes, f"agent failure: {status}")})
+
+    median, p99 = _latency(outcome)
+    stats = EpisodeStats(
+        steps=outcome.steps,
+        invalid_actions=outcome.invalid_actions,
+        protocol_errors=dict(outcome.protocol_errors),
+        latency_ms_median=median,
+        latency_ms_p99=p99,
+        peak_memory_bytes=exit_.peak_memory_bytes,
+        wall_s=time.time() - started,
+        stage_durations_s=outcome.stage_durations_s,
+        sim_warnings=int(episode_outcome.get("sim_warnings", 0) or 0),
+    )
+    failure = None
+    if status.failure_kind is not None:
+        failure = FailureReport(
+            kind=status.failure_kind, status=status, stage_reached=outcome.last_stage,
+            limit_hit=limit, exit_code=exit_.exit_code, oom_killed=exit_.oom_killed,
+            message=message, log_tail=exit_.log_tail[-2000:],
+        )
+    result = EpisodeResult(
+        episode=episode_id, track=spec.track, split=spec.split, image=spec.image,
+        runtime=runtime.name, status=status, score=score, stats=stats, files=tuple(checks),
+        stages_reached=tuple(outcome.stages_reached), failure=failure, container=exit_,
+        episode_dir=str(root), mcap=str(host_dir / "episode.mcap"),
+        started_at=started, finished_at=time.time(),
+    )
+    recorder.write_json("/eagc/score", recorder.now(), result.model_dump(mode="json"))
+    recorder.close()
+    (host_dir / "result.json").write_text(result.model_dump_json(indent=2))
+    (host_dir / "agent.log").write_text(exit_.log_tail)
+    if infra is not None:
+        (host_dir / "infra_error.txt").write_text(infra)
+    # Keep a copy of what the agent left (regular files only), then release the tmpfs.
+    keep = host_dir / "output"
+    keep.mkdir(exist_ok=True)
+    for name, blob in final.files.items():
+        (keep / name).write_bytes(blob)
+    if mounted:
+        unmount_output(output)
+    shutil.rmtree(sock_dir, ignore_errors=True)
+    return result
+
+
+def result_json(result: EpisodeResult) -> str:
+    return json.dumps(result.model_dump(mode="json"), indent=2)

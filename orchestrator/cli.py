@@ -1,0 +1,153 @@
+"""The ``eagc`` command line."""
+
+from __future__ import annotations
+
+import logging
+import random
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+app = typer.Typer(
+    help="eagc: the evaluation system of the EAGC 2026 World Model Challenge.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+)
+images_app = typer.Typer(help="Build the base, agent-base and example images offline.")
+app.add_typer(images_app, name="images")
+console = Console()
+
+#: Example agents: what `--runtime local` runs instead of the image of the same name.
+LOCAL_COMMANDS = {"eagc/sanity-agent:latest": "python examples/sanity_agent/agent.py"}
+
+
+def _docker_answers() -> bool:
+    try:
+        from orchestrator._docker import docker_client
+
+        docker_client()
+        return True
+    except Exception:  # noqa: BLE001
+        return False
+
+
+def _runtime(name: str):  # noqa: ANN202
+    if name == "docker":
+        from orchestrator._docker import DockerRuntime
+
+        return DockerRuntime()
+    from orchestrator._local import WARNING, LocalProcessRuntime
+
+    console.print(f"[bold yellow]{WARNING}[/]")
+    return LocalProcessRuntime(quiet=True)
+
+
+def _run_one(track: str, image: str, runtime: str, seed: int, split: str, time_scale: float,
+             max_steps: int | None, memory_mb: int, cpus: float, runs_dir: Path,
+             as_json: bool) -> int:
+    from orchestrator._worker import EpisodeSpec, run_episode
+    from orchestrator._report import print_result
+    from schemas import Limits
+
+    limits = Limits(time_scale=time_scale, max_steps_per_stage=max_steps, memory_mb=memory_mb,
+                    cpus=cpus)
+    spec = EpisodeSpec(track=track, image=image, seed=seed, split=split, limits=limits,
+                       runs_dir=runs_dir)
+    with console.status(f"running one {track} episode ({runtime})…"):
+        result = run_episode(spec, _runtime(runtime))
+    if as_json:
+        print(result.model_dump_json(indent=2))
+    else:
+        print_result(result, console)
+    return 0 if result.status.failure_kind != "infra" else 2
+
+
+@app.command("run-episode")
+def run_episode_cmd(
+    track: Annotated[str, typer.Argument(help="Track name, e.g. sanity.")],
+    image: Annotated[str, typer.Option(help="Agent image (docker) or command (local).")],
+    runtime: Annotated[str, typer.Option(help="docker, or local (development only).")] = "docker",
+    seed: Annotated[int, typer.Option(help="Scenario seed (public: for local tests).")] = 0,
+    split: Annotated[str, typer.Option()] = "standard",
+    time_scale: Annotated[float, typer.Option(help="Multiplies every stage budget.")] = 1.0,
+    max_steps: Annotated[int | None, typer.Option(help="Step cap per stage.")] = None,
+    memory_mb: Annotated[int, typer.Option()] = 2048,
+    cpus: Annotated[float, typer.Option()] = 1.0,
+    runs_dir: Annotated[Path, typer.Option(help="Where episode folders go.")] = Path("runs"),
+    as_json: Annotated[bool, typer.Option("--json", help="Print the EpisodeResult as JSON.")] = False,
+) -> None:
+    """Run one episode of a track against an agent and print its score card."""
+    if runtime not in ("docker", "local"):
+        raise typer.BadParameter("runtime must be docker or local")
+    raise typer.Exit(_run_one(track, image, runtime, seed, split, time_scale, max_steps,
+                              memory_mb, cpus, runs_dir, as_json))
+
+
+@app.command()
+def demo(
+    runtime: Annotated[str, typer.Option(help="auto, docker or local.")] = "auto",
+    seed: Annotated[int | None, typer.Option(help="Scenario seed (random by default).")] = None,
+    runs_dir: Annotated[Path, typer.Option()] = Path("runs"),
+) -> None:
+    """One sanity episode with the example agent: in a container when a Docker engine
+    answers (building the images offline first), otherwise as a local process."""
+    if runtime == "auto":
+        runtime = "docker" if _docker_answers() else "local"
+        if runtime == "local":
+            console.print("[yellow]No Docker engine answers: running the example agent as a "
+                          "local process instead (no sandbox).[/]")
+    image = "eagc/sanity-agent:latest"
+    if runtime == "docker":
+        from orchestrator._images import build_all
+
+        with console.status("building images offline (first time: about a minute)…"):
+            build_all(say=lambda m: console.print(f"[dim]{m}[/]"))
+    else:
+        image = LOCAL_COMMANDS[image]
+    seed = random.randrange(1 << 31) if seed is None else seed
+    console.print(f"sanity episode, seed {seed}, runtime {runtime}")
+    raise typer.Exit(_run_one("sanity", image, runtime, seed, "challenge", 1.0, None, 512, 1.0,
+                              runs_dir, False))
+
+
+@images_app.command("build")
+def images_build(force: Annotated[bool, typer.Option(help="Rebuild everything.")] = False) -> None:
+    """Build eagc/base, eagc/agent-base and the example agents, with no registry."""
+    from orchestrator._images import build_all
+
+    for tag in build_all(say=lambda m: console.print(m), force=force):
+        console.print(f"[green]✓[/] {tag}")
+
+
+@app.command()
+def cleanup(
+    campaign: Annotated[str | None, typer.Option(help="Only this campaign's containers.")] = None,
+) -> None:
+    """Remove agent containers left behind by a dead worker (found by label)."""
+    from orchestrator._docker import DockerRuntime
+
+    labels = {"campaign": campaign} if campaign else None
+    removed = DockerRuntime().cleanup(labels)
+    console.print(f"removed {len(removed)} container(s)" + (f": {removed}" if removed else ""))
+
+
+@app.command()
+def tracks() -> None:
+    """List the installed tracks."""
+    from plugins import available_tracks, load_track
+
+    for name in available_tracks():
+        plugin = load_track(name)
+        stages = ", ".join(f"{s.name} {s.budget_s:g}s" for s in plugin.stages())
+        console.print(f"[bold]{name}[/]: {plugin.title}\n  stages: {stages}")
+
+
+def main() -> None:
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    app()
+
+
+if __name__ == "__main__":
+    main()

@@ -24,7 +24,20 @@ _EXPORTS = {
     "build_all": "orchestrator._images",
 }
 
-__all__ = sorted(_EXPORTS)
+__all__ = [
+    "AgentHandle",
+    "AgentLaunch",
+    "AgentRuntime",
+    "AgentStartError",
+    "DockerRuntime",
+    "EpisodeSpec",
+    "InfraError",
+    "LocalProcessRuntime",
+    "build_all",
+    "collect",
+    "new_episode_id",
+    "run_episode",
+]
 
 
 def __getattr__(name: str) -> Any:

@@ -165,6 +165,14 @@ class DockerRuntime(AgentRuntime):
                 docker.types.DeviceRequest(device_ids=list(lim.gpus), capabilities=[["gpu"]])
             )
         try:
+            # Never pull: images reach nodes as `docker save` archives, and no registry is
+            # reachable anyway. A missing image is the submission's fault.
+            self.client.images.get(launch.image)
+        except docker.errors.ImageNotFound as e:
+            raise AgentStartError(f"image {launch.image!r} is not loaded on this node") from e
+        except docker.errors.APIError as e:
+            raise InfraError(f"engine error looking up {launch.image!r}: {e}") from e
+        try:
             container = self.client.containers.run(
                 launch.image,
                 detach=True,

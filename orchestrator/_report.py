@@ -53,9 +53,9 @@ def render(result: EpisodeResult) -> Panel:
         files.add_column("size", justify="right")
         files.add_column("check")
         for f in result.files:
-            files.add_row(f.name, "—" if f.size is None else str(f.size),
-                          Text("ok", style="green") if f.ok else Text(f.reason.splitlines()[0][:90],
-                                                                      style="red"))
+            check = (Text("ok", style="green") if f.ok
+                     else Text(f.reason.splitlines()[0][:90], style="red"))
+            files.add_row(f.name, "—" if f.size is None else str(f.size), check)
         parts.append(files)
     for note in card.notes:
         parts.append(Text(f"note: {note}", style="dim"))
@@ -72,7 +72,8 @@ def render(result: EpisodeResult) -> Panel:
         parts.append(Panel(fail, title="failure report", border_style="red"))
         if f.log_tail.strip():
             tail = "\n".join(f.log_tail.rstrip().splitlines()[-12:])
-            parts.append(Panel(Text(tail), title="last lines the agent printed", border_style="dim"))
+            parts.append(Panel(Text(tail), title="last lines the agent printed",
+                               border_style="dim"))
     if result.episode_dir:
         parts.append(Text(f"organizer files: {result.episode_dir}/host", style="dim"))
     return Panel(Group(*parts), title=title, border_style="green" if ok else "red")

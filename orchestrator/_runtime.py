@@ -47,8 +47,10 @@ class AgentLaunch:
     input_dir: Path | None = None
     labels: Mapping[str, str] = field(default_factory=dict)
 
-    def environment(self, *, socket_dir: str, output_dir: str, input_dir: str | None) -> dict[str, str]:
-        """The agent's environment: the endpoint, the opaque episode id, its folders. Nothing else."""
+    def environment(
+        self, *, socket_dir: str, output_dir: str, input_dir: str | None
+    ) -> dict[str, str]:
+        """The agent's environment: endpoint, opaque episode id, its folders. Nothing else."""
         env = {
             "EAGC_ENDPOINT": f"unixsock-stream/{socket_dir}/{SOCKET_NAME}",
             "EAGC_EPISODE": self.episode,

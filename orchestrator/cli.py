@@ -47,8 +47,8 @@ def _runtime(name: str):  # noqa: ANN202
 def _run_one(track: str, image: str, runtime: str, seed: int, split: str, time_scale: float,
              max_steps: int | None, memory_mb: int, cpus: float, runs_dir: Path,
              as_json: bool) -> int:
-    from orchestrator._worker import EpisodeSpec, run_episode
     from orchestrator._report import print_result
+    from orchestrator._worker import EpisodeSpec, run_episode
     from schemas import Limits
 
     limits = Limits(time_scale=time_scale, max_steps_per_stage=max_steps, memory_mb=memory_mb,
@@ -76,7 +76,7 @@ def run_episode_cmd(
     memory_mb: Annotated[int, typer.Option()] = 2048,
     cpus: Annotated[float, typer.Option()] = 1.0,
     runs_dir: Annotated[Path, typer.Option(help="Where episode folders go.")] = Path("runs"),
-    as_json: Annotated[bool, typer.Option("--json", help="Print the EpisodeResult as JSON.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the result as JSON.")] = False,
 ) -> None:
     """Run one episode of a track against an agent and print its score card."""
     if runtime not in ("docker", "local"):

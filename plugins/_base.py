@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 
 from pydantic import BaseModel
 
-from schemas import FileCheck, ScoreCard, SchemaError, parse_json, parse_jsonl
+from schemas import FileCheck, SchemaError, ScoreCard, parse_json, parse_jsonl
 from schemas._result import EpisodeStatus
 from simhost._episode import StageSpec, TrackEpisode
 

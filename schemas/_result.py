@@ -58,7 +58,9 @@ class FailureReport(_Frozen):
     kind: Literal["agent", "infra"]
     status: EpisodeStatus
     stage_reached: str | None
-    limit_hit: str | None = Field(default=None, description="e.g. 'memory 512 MiB', 'stage budget'.")
+    limit_hit: str | None = Field(
+        default=None, description="e.g. 'memory 512 MiB', 'stage budget of explore'."
+    )
     exit_code: int | None = None
     oom_killed: bool = False
     message: str

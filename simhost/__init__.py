@@ -28,7 +28,24 @@ _EXPORTS = {
     "write_png": "simhost._png",
 }
 
-__all__ = sorted(_EXPORTS)
+__all__ = [
+    "ActionError",
+    "EpisodeRecorder",
+    "HostConfig",
+    "HostError",
+    "HostOutcome",
+    "McapRecorder",
+    "Observation",
+    "RemoteEnv",
+    "SimHost",
+    "StageSpec",
+    "StepOutcome",
+    "TimeStep",
+    "TrackEpisode",
+    "check_action",
+    "encode_png",
+    "write_png",
+]
 
 if TYPE_CHECKING:
     from simhost._actions import ActionError, check_action

@@ -7,6 +7,7 @@ its name. Unknown fields are refused; absent fields are left out (the track deci
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -19,7 +20,32 @@ class ActionError(ValueError):
     """Raised when an action does not match the action spec."""
 
 
+_FLOATS = {"float32": np.float32, "float64": np.float64}
+
+
+def _fast_floats(spec: FieldSpec, value: list[Any]) -> np.ndarray | None:
+    """The common case, a short list of plain numbers, without numpy's per-call overhead."""
+    if len(spec.shape) != 1 or len(value) != spec.shape[0] or spec.choices is not None:
+        return None
+    low = -math.inf if spec.low is None else spec.low
+    high = math.inf if spec.high is None else spec.high
+    for x in value:
+        if type(x) is not float and type(x) is not int:
+            return None
+        if not math.isfinite(x):
+            raise ActionError(f"{spec.name}: NaN or Inf is not allowed")
+        if x < low:
+            raise ActionError(f"{spec.name}: below the lower bound {spec.low}")
+        if x > high:
+            raise ActionError(f"{spec.name}: above the upper bound {spec.high}")
+    return np.array(value, dtype=_FLOATS[spec.dtype])
+
+
 def _check_field(spec: FieldSpec, value: Any) -> Any:
+    if spec.dtype in _FLOATS and type(value) is list:
+        fast = _fast_floats(spec, value)
+        if fast is not None:
+            return fast
     if spec.dtype == "str":
         if not isinstance(value, str) or len(value) > 4096:
             raise ActionError(f"{spec.name}: expected a string of at most 4096 characters")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import os
+import queue
 import threading
 import time
 import traceback
@@ -31,7 +32,6 @@ from schemas._protocol import (
     Hello,
     HelloReply,
     HostMessage,
-    ObservationReply,
     Reset,
     StageInfo,
     Step,
@@ -127,8 +127,9 @@ class SimHost:
         self.recorder = recorder or EpisodeRecorder()
         self._on_stage_end = on_stage_end
         self.outcome = HostOutcome()
-        self._lock = threading.RLock()
-        self._wake = threading.Condition(self._lock)
+        # Zenoh's callbacks only enqueue; serve() handles requests and keeps the clock on one
+        # thread, so no lock is needed and a reply is never raced by a stage ending.
+        self._inbox: queue.SimpleQueue[tuple[float, bytes] | None] = queue.SimpleQueue()
         self._phase = "hello"  # hello → reset → running → over
         self._seq = 0
         self._stage = -1
@@ -177,58 +178,62 @@ class SimHost:
             self._session = None
 
     def serve(self, stop: threading.Event | None = None, poll_s: float = 0.05) -> HostOutcome:
-        """Runs the episode's clock until it ends; returns how it ended."""
+        """Serves requests and keeps the episode's clock until it ends; returns how it ended.
+
+        ``stop`` (set by another thread, e.g. when the container exits) ends the episode at
+        the next poll.
+        """
         if self._session is None:
             self.open()
         stop = stop or threading.Event()
         startup_deadline = time.monotonic() + self.config.startup_s
-        with self._lock:
-            while self._phase != "over":
-                now = time.monotonic()
-                if stop.is_set():
-                    self._finish("stopped", "stopped")
-                    break
-                if self._agent_lost and self.outcome.agent_seen:
-                    self._finish("agent_lost", "stopped")
-                    break
-                if self._phase in ("hello", "reset") and now > startup_deadline:
-                    self._finish("startup_timeout", "stopped")
-                    break
-                if self._phase == "running" and now >= self._stage_deadline:
-                    self._advance("budget")
-                    continue
-                wait = poll_s
-                if self._phase == "running":
-                    wait = min(wait, max(0.0, self._stage_deadline - now))
-                self._wake.wait(timeout=wait)
+        while self._phase != "over":
+            now = time.monotonic()
+            if stop.is_set():
+                self._finish("stopped", "stopped")
+                break
+            if self._agent_lost and self.outcome.agent_seen:
+                self._finish("agent_lost", "stopped")
+                break
+            if self._phase in ("hello", "reset") and now > startup_deadline:
+                self._finish("startup_timeout", "stopped")
+                break
+            if self._phase == "running" and now >= self._stage_deadline:
+                self._advance("budget")
+                continue
+            wait = poll_s
+            if self._phase == "running":
+                wait = min(wait, max(0.0, self._stage_deadline - now))
+            try:
+                item = self._inbox.get(timeout=wait)
+            except queue.Empty:
+                continue
+            if item is not None:
+                self._serve_one(*item)
         return self.outcome
 
     # ------------------------------------------------------------------ callbacks
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
-        with self._lock:
-            if sample.kind == zenoh.SampleKind.PUT:
-                self.outcome.agent_seen = True
-                self._agent_lost = False
-                self._event("agent_alive", {})
-            else:
-                self._agent_lost = True
-                self._event("agent_lost", {})
-            self._wake.notify_all()
+        if sample.kind == zenoh.SampleKind.PUT:
+            self.outcome.agent_seen = True
+            self._agent_lost = False
+        else:
+            self._agent_lost = True
+        self._inbox.put(None)  # wake serve()
 
     def _on_request(self, sample: zenoh.Sample) -> None:
-        received = time.monotonic()
-        buf = sample.payload.to_bytes()
-        with self._lock:
-            try:
-                reply = self._handle(buf, received)
-            except Exception as e:  # noqa: BLE001 - a host bug must still answer and be recorded
-                self.outcome.internal_error = "".join(traceback.format_exception(e))
-                log.exception("internal error while serving episode %s", self.config.episode)
-                reply = self._error("internal", f"host error: {type(e).__name__}", fatal=True)
-                self._finish("internal_error", "stopped")
-            self._pub.put(reply)
-            self._last_reply_at = time.monotonic()
-            self._wake.notify_all()
+        self._inbox.put((time.monotonic(), sample.payload.to_bytes()))
+
+    def _serve_one(self, received: float, buf: bytes) -> None:
+        try:
+            reply = self._handle(buf, received)
+        except Exception as e:  # noqa: BLE001 - a host bug must still answer and be recorded
+            self.outcome.internal_error = "".join(traceback.format_exception(e))
+            log.exception("internal error while serving episode %s", self.config.episode)
+            reply = self._error("internal", f"host error: {type(e).__name__}", fatal=True)
+            self._finish("internal_error", "stopped")
+        self._pub.put(reply)
+        self._last_reply_at = time.monotonic()
 
     # ------------------------------------------------------------------- handling
     def _error(self, code: str, message: str, *, fatal: bool = False) -> bytes:
@@ -369,18 +374,23 @@ class SimHost:
         over = self._phase == "over"
         stage = self.stages[self._stage]
         cap = self._step_cap(stage)
-        reply = ObservationReply(
-            seq=self._seq,
-            stage=stage.name,
-            stage_index=self._stage,
-            time_left_s=0.0 if over else max(0.0, self._stage_deadline - time.monotonic()),
-            steps_left=None if cap is None else max(0, cap - self._stage_steps),
-            observation=dict(out.observation.data),
-            action=out.action,
-            messages=messages,
-            episode_over=over,
-            end_reason=self.outcome.end_reason if over else None,
-        )
+        # The hot path: a plain dict with exactly ObservationReply's fields (tests validate
+        # the host's replies against the model; building the model costs more than a step).
+        action = out.action
+        reply = {
+            "kind": "observation",
+            "seq": self._seq,
+            "stage": stage.name,
+            "stage_index": self._stage,
+            "time_left_s": 0.0 if over else max(0.0, self._stage_deadline - time.monotonic()),
+            "steps_left": None if cap is None else max(0, cap - self._stage_steps),
+            "observation": dict(out.observation.data),
+            "action": None if action is None else
+            {"applied": action.applied, "ok": action.ok, "reason": action.reason},
+            "messages": [m.model_dump(mode="json") for m in messages],
+            "episode_over": over,
+            "end_reason": self.outcome.end_reason if over else None,
+        }
         self.recorder.reply(self._now(), reply, out.observation)
         return encode(reply, out.observation.tensors)
 
@@ -427,7 +437,6 @@ class SimHost:
             self._phase = "over"
             self.outcome.end_reason = "completed" if ended_by == "agent" else ended_by
             self._event("episode_end", {"reason": self.outcome.end_reason})
-        self._wake.notify_all()
 
     def _finish(self, reason: str, ended_by: StageEnd) -> None:
         if self._phase == "over":
@@ -437,7 +446,6 @@ class SimHost:
         self._phase = "over"
         self.outcome.end_reason = reason
         self._event("episode_end", {"reason": reason})
-        self._wake.notify_all()
 
     # ---------------------------------------------------------------------- utils
     def _now(self) -> float:

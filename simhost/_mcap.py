@@ -110,7 +110,9 @@ class McapRecorder(EpisodeRecorder):
         self.write_json("/eagc/request", t, body)
 
     def reply(self, t: float, reply: Any, obs: Observation | None) -> None:
-        self.write_json("/eagc/reply", t, reply.model_dump(mode="json", exclude={"tensors"}))
+        if not isinstance(reply, dict):
+            reply = reply.model_dump(mode="json", exclude={"tensors"})
+        self.write_json("/eagc/reply", t, reply)
         if obs is None:
             return
         self._replies += 1

@@ -11,6 +11,8 @@ Imports only numpy and pydantic (it runs inside team containers).
 
 from __future__ import annotations
 
+import json
+import math
 import struct
 from collections.abc import Mapping
 from typing import Any
@@ -18,7 +20,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, TypeAdapter, ValidationError
 
-from schemas._protocol import Reply, Request, TensorMeta
+from schemas._protocol import Reply, Request
 
 MAGIC = b"EGC1"
 _FRAME = struct.Struct("<4sI")
@@ -26,6 +28,11 @@ _ALIGN = 8
 
 _REQUEST = TypeAdapter(Request)
 _REPLY = TypeAdapter(Reply)
+_DTYPES = {
+    name: np.dtype(name)
+    for name in ("float32", "float64", "int32", "int64", "uint8", "uint16", "bool")
+}
+_NAMES = {dt: name for name, dt in _DTYPES.items()}
 
 
 class WireError(ValueError):
@@ -40,25 +47,40 @@ def _pad(n: int) -> int:
     return (-n) % _ALIGN
 
 
-def encode(message: BaseModel, tensors: Mapping[str, np.ndarray] | None = None) -> bytes:
-    """Serialise a message model and its tensors into one buffer."""
-    metas: list[TensorMeta] = []
+def encode(
+    message: BaseModel | dict[str, Any], tensors: Mapping[str, np.ndarray] | None = None
+) -> bytes:
+    """Serialise a message (a model, or on hot paths the equivalent plain dict) and tensors.
+
+    Tensor metadata is written as plain JSON: on a 64-byte observation, building validated
+    ``TensorMeta`` models cost more than the rest of the step.
+    """
+    metas: list[dict[str, Any]] = []
     blobs: list[bytes | memoryview] = []
     offset = 0
     for name, arr in (tensors or {}).items():
-        a = np.ascontiguousarray(arr)
+        a = arr if arr.flags.c_contiguous else np.ascontiguousarray(arr)
+        dtype = _NAMES.get(a.dtype)
+        if dtype is None:
+            raise WireError("malformed", f"tensor {name!r}: dtype {a.dtype} is not in protocol v1")
         nbytes = a.nbytes
         metas.append(
-            TensorMeta(name=name, dtype=a.dtype.name, shape=a.shape, offset=offset, nbytes=nbytes)
+            {"name": name, "dtype": dtype, "shape": a.shape, "offset": offset, "nbytes": nbytes}
         )
         blobs.append(memoryview(a).cast("B") if nbytes else b"")
         pad = _pad(nbytes)
         if pad:
             blobs.append(b"\0" * pad)
         offset += nbytes + pad
-    if metas:
-        message = message.model_copy(update={"tensors": tuple(metas)})
-    header = message.model_dump_json(exclude_defaults=False).encode()
+    if isinstance(message, dict):
+        doc = dict(message, tensors=metas)
+        header = json.dumps(doc, separators=(",", ":"), allow_nan=False).encode()
+    elif metas:
+        doc = message.model_dump(mode="json")
+        doc["tensors"] = metas
+        header = json.dumps(doc, separators=(",", ":"), allow_nan=False).encode()
+    else:
+        header = message.model_dump_json().encode()
     header += b" " * _pad(_FRAME.size + len(header))
     return b"".join([_FRAME.pack(MAGIC, len(header)), header, *blobs])
 
@@ -77,23 +99,31 @@ def _split(buf: bytes, max_bytes: int | None) -> tuple[bytes, memoryview]:
     return bytes(view[_FRAME.size : _FRAME.size + hlen]), view[_FRAME.size + hlen :]
 
 
-def _tensors(metas: tuple[TensorMeta, ...], block: memoryview) -> dict[str, np.ndarray]:
+def _tensors(metas: Any, block: memoryview) -> dict[str, np.ndarray]:
+    """Views of the tensors; ``metas`` are TensorMeta models or their plain dicts."""
     out: dict[str, np.ndarray] = {}
     for m in metas:
-        dtype = np.dtype(m.dtype)
-        expected = int(np.prod(m.shape, dtype=np.int64)) * dtype.itemsize
-        if m.nbytes != expected:
-            raise WireError("malformed", f"tensor {m.name!r}: {m.nbytes} bytes, shape needs {expected}")
-        if m.offset + m.nbytes > len(block):
-            raise WireError("malformed", f"tensor {m.name!r} runs past the end of the message")
-        if m.name in out:
-            raise WireError("malformed", f"tensor {m.name!r} appears twice")
-        arr = np.frombuffer(block, dtype=dtype, count=expected // dtype.itemsize, offset=m.offset)
-        out[m.name] = arr.reshape(m.shape)
+        if not isinstance(m, dict):
+            m = m.__dict__
+        name, shape, offset, nbytes = m["name"], tuple(m["shape"]), m["offset"], m["nbytes"]
+        dtype = _DTYPES.get(m["dtype"])
+        if dtype is None:
+            raise WireError("malformed", f"tensor {name!r}: dtype {m['dtype']!r} not in v1")
+        expected = math.prod(shape) * dtype.itemsize
+        if nbytes != expected:
+            raise WireError("malformed", f"tensor {name!r}: {nbytes} bytes, shape needs {expected}")
+        if offset < 0 or offset + nbytes > len(block):
+            raise WireError("malformed", f"tensor {name!r} runs past the end of the message")
+        if name in out:
+            raise WireError("malformed", f"tensor {name!r} appears twice")
+        arr = np.frombuffer(block, dtype=dtype, count=expected // dtype.itemsize, offset=offset)
+        out[name] = arr.reshape(shape)
     return out
 
 
-def decode_request(buf: bytes, *, max_bytes: int | None = None) -> tuple[Any, dict[str, np.ndarray]]:
+def decode_request(
+    buf: bytes, *, max_bytes: int | None = None
+) -> tuple[Any, dict[str, np.ndarray]]:
     """Parse an agent's request. Raises WireError (malformed / oversized)."""
     header, block = _split(buf, max_bytes)
     try:
@@ -105,8 +135,27 @@ def decode_request(buf: bytes, *, max_bytes: int | None = None) -> tuple[Any, di
     return msg, _tensors(msg.tensors, block)
 
 
+def decode_observation(buf: bytes) -> tuple[dict[str, Any], dict[str, np.ndarray]] | None:
+    """Fast path for the agent: an observation reply as a plain dict, or None for other kinds.
+
+    The host is trusted from the agent's side, so the header is parsed without validation;
+    tensor offsets and sizes are still checked before any byte is read.
+    """
+    header, block = _split(buf, None)
+    try:
+        doc = json.loads(header)
+    except ValueError as e:
+        raise WireError("malformed", f"reply header is not JSON: {e}") from None
+    if not isinstance(doc, dict) or doc.get("kind") != "observation":
+        return None
+    try:
+        return doc, _tensors(doc.get("tensors", ()), block)
+    except (KeyError, TypeError) as e:
+        raise WireError("malformed", f"bad tensor metadata in reply: {e}") from None
+
+
 def decode_reply(buf: bytes) -> tuple[Any, dict[str, np.ndarray]]:
-    """Parse a host's reply."""
+    """Parse a host's reply (fully validated)."""
     header, block = _split(buf, None)
     try:
         msg = _REPLY.validate_json(header)

@@ -1,0 +1,11 @@
+"""Resets, then never sends another request (a frozen agent)."""
+
+import time
+
+from simhost.agent import RemoteEnv
+
+env = RemoteEnv()
+env.hello(agent="frozen")
+env.reset()
+while True:
+    time.sleep(3600)

@@ -1,0 +1,181 @@
+"""Episodes in real containers under the full sandbox (DESIGN §4)."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import pytest
+from mcap.reader import make_reader
+
+from orchestrator._docker import DockerRuntime
+from orchestrator._runtime import AgentHandle, AgentLaunch
+from orchestrator._worker import EpisodeSpec, run_episode
+from schemas import EpisodeResult, EpisodeStatus, Limits, load_json
+
+pytestmark = [pytest.mark.docker]
+
+SECRET_SEED = 987654321
+
+
+class RecordingRuntime(DockerRuntime):
+    """The real DockerRuntime, also keeping what the engine says about each container."""
+
+    def __init__(self, client: Any) -> None:
+        super().__init__(client)
+        self.inspected: list[dict[str, Any]] = []
+
+    def start(self, launch: AgentLaunch) -> AgentHandle:
+        handle = super().start(launch)
+        handle.container.reload()  # type: ignore[attr-defined]
+        self.inspected.append(handle.container.attrs)  # type: ignore[attr-defined]
+        return handle
+
+
+def _run(engine: Any, runs: Path, image: str, *, seed: int = 11, **limits: Any
+         ) -> tuple[EpisodeResult, RecordingRuntime]:
+    runtime = RecordingRuntime(engine)
+    spec = EpisodeSpec(track="sanity", image=image, seed=seed, split="challenge",
+                       limits=Limits(**limits), runs_dir=runs, exit_grace_s=5.0)
+    return run_episode(spec, runtime), runtime
+
+
+def _assert_gone(engine: Any, result: EpisodeResult, runtime: RecordingRuntime) -> None:
+    left = engine.containers.list(all=True, filters={"label": f"eagc.episode={result.episode}"})
+    assert left == [], "the episode's container is still there"
+    for attrs in runtime.inspected:
+        pid = attrs["State"]["Pid"]
+        assert pid and not Path(f"/proc/{pid}").exists(), f"process {pid} survived the episode"
+
+
+def test_sanity_episode_end_to_end(docker_engine: Any, images: dict, runs_dir: Path) -> None:
+    result, runtime = _run(docker_engine, runs_dir, "eagc/sanity-agent:latest", seed=5)
+    assert result.status is EpisodeStatus.COMPLETED, result.failure
+    assert result.failure is None and result.runtime == "docker"
+    assert result.score.total > 0.5
+    assert result.stages_reached == ("explore", "reach")
+    assert {f.name for f in result.files if f.ok} == {"world_model.json", "episode_log.jsonl"}
+    assert result.stats.steps > 0 and result.stats.latency_ms_median is not None
+    assert result.stats.peak_memory_bytes and result.stats.peak_memory_bytes > 1 << 20
+
+    host = Path(result.episode_dir or "") / "host"
+    assert load_json(host / "result.json", EpisodeResult) == result
+    topics: dict[str, int] = {}
+    with open(host / "episode.mcap", "rb") as f:
+        for _, channel, message in make_reader(f).iter_messages():
+            topics[channel.topic] = topics.get(channel.topic, 0) + 1
+            if channel.topic == "/eagc/scenario":
+                assert json.loads(message.data)["seed"] == 5
+    for topic in ("/eagc/scenario", "/eagc/request", "/eagc/reply", "/eagc/event",
+                  "/eagc/state_hash", "/eagc/score", "/eagc/file/explore/world_model.json"):
+        assert topics.get(topic), f"MCAP has no {topic}: {sorted(topics)}"
+    assert topics["/eagc/state_hash"] == result.stats.steps
+
+    # The sandbox, as the engine reports it.
+    (attrs,) = runtime.inspected
+    hc = attrs["HostConfig"]
+    assert hc["NetworkMode"] == "none"
+    assert hc["ReadonlyRootfs"] is True
+    assert hc["CapDrop"] == ["ALL"]
+    assert "no-new-privileges" in hc["SecurityOpt"]
+    assert hc["PidsLimit"] == Limits().pids
+    assert hc["Memory"] == hc["MemorySwap"] == Limits().memory_mb << 20
+    assert hc["NanoCpus"] == int(Limits().cpus * 1e9)
+    assert "size=" in hc["Tmpfs"]["/tmp"]
+    assert attrs["Config"]["User"] == "10001:10001"
+    assert attrs["Config"]["Labels"]["eagc.episode"] == result.episode
+    mounts = {m["Destination"]: m for m in attrs["Mounts"]}
+    assert set(mounts) == {"/run/eagc", "/output"}
+    assert mounts["/run/eagc"]["RW"] is False
+    _assert_gone(docker_engine, result, runtime)
+
+
+def test_sandbox_probe_learns_nothing(docker_engine: Any, images: dict, runs_dir: Path) -> None:
+    result, runtime = _run(docker_engine, runs_dir, images["probe"], seed=SECRET_SEED)
+    assert result.status is EpisodeStatus.AGENT_CRASH  # it leaves without playing
+    found = json.loads((Path(result.episode_dir or "") / "host/output/probe.json").read_text())
+    assert found["uid"] == 10001
+    for key in ("tcp_outside", "tcp_host_gateway", "tcp_host_loopback", "dns"):
+        assert found[key].startswith("failed"), (key, found[key])
+    assert found["write_etc"].startswith("failed") and not found["root_writable"]
+    # Zenoh: only its own admin space and its own episode's agent keys.
+    own = f"@/{found['zid']}"
+    agent_keys = f"eagc/v1/{result.episode}/agent/"
+    for reply in found["get_replies"]:
+        key = reply["key"]
+        assert key is None or key.startswith(own) or key.startswith(agent_keys), reply
+    assert all(k.startswith(agent_keys) for k in found["sub_seen"]), found["sub_seen"]
+    # No seed, ground truth or organizer path in its environment or mounts.
+    assert set(found["env"]) <= {"EAGC_ENDPOINT", "EAGC_EPISODE", "EAGC_OUTPUT", "HOME",
+                                 "PYTHONUNBUFFERED", "PATH", "HOSTNAME", "PYTHONDONTWRITEBYTECODE",
+                                 "LC_CTYPE"}  # LC_CTYPE: set by Python itself (PEP 538)
+    everything = json.dumps(found)
+    assert str(SECRET_SEED) not in everything
+    assert str(runs_dir) not in everything
+    assert "target" not in json.dumps(found["env"]) + found["mounts"]
+    _assert_gone(docker_engine, result, runtime)
+
+
+def test_oom_is_an_agent_failure(docker_engine: Any, images: dict, runs_dir: Path) -> None:
+    result, runtime = _run(docker_engine, runs_dir, images["oom"], memory_mb=96)
+    assert result.status is EpisodeStatus.AGENT_OOM
+    assert result.failure is not None and result.failure.kind == "agent"
+    assert result.failure.oom_killed and "memory" in (result.failure.limit_hit or "")
+    assert result.failure.stage_reached == "explore"
+    _assert_gone(docker_engine, result, runtime)
+
+
+def test_crash_is_an_agent_failure(docker_engine: Any, images: dict, runs_dir: Path) -> None:
+    result, runtime = _run(docker_engine, runs_dir, images["crash"])
+    assert result.status is EpisodeStatus.AGENT_CRASH
+    assert result.failure is not None and result.failure.exit_code == 3
+    assert not result.failure.oom_killed
+    assert "about to crash" in result.failure.log_tail
+    assert result.stats.steps == 5
+    _assert_gone(docker_engine, result, runtime)
+
+
+def test_frozen_agent_ends_with_its_stage_budgets(
+    docker_engine: Any, images: dict, runs_dir: Path
+) -> None:
+    result, runtime = _run(docker_engine, runs_dir, images["frozen"], time_scale=0.04)
+    assert result.status is EpisodeStatus.AGENT_TIMEOUT
+    assert result.failure is not None and result.failure.limit_hit == "stage budget of 'reach'"
+    assert result.stages_reached == ("explore", "reach")
+    assert result.container is not None and result.container.killed_by_host
+    _assert_gone(docker_engine, result, runtime)
+
+
+def test_silent_agent_and_its_children_are_gone(
+    docker_engine: Any, images: dict, runs_dir: Path
+) -> None:
+    result, runtime = _run(docker_engine, runs_dir, images["silent"], startup_s=3.0)
+    assert result.status is EpisodeStatus.AGENT_TIMEOUT
+    assert result.failure is not None and "never connected" in result.failure.message
+    assert result.score.total == pytest.approx(0.0, abs=0.15)
+    _assert_gone(docker_engine, result, runtime)
+    assert not any(
+        "sleep 3600" in Path(f"/proc/{p}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+        for p in os.listdir("/proc") if p.isdigit() and Path(f"/proc/{p}/cmdline").exists()
+    ), "a child of the container survived"
+
+
+def test_hostile_files_are_refused(docker_engine: Any, images: dict, runs_dir: Path) -> None:
+    result, runtime = _run(docker_engine, runs_dir, images["bad_files"], output_file_mb=1)
+    assert result.status is EpisodeStatus.AGENT_BAD_FILES
+    checks = {f.name: f for f in result.files}
+    assert "symbolic link" in checks["world_model.json"].reason
+    assert "FIFO" in checks["pipe.json"].reason
+    assert "exceeds the cap" in checks["huge.bin"].reason
+    assert checks["episode_log.jsonl"].ok
+    assert result.score.components["model"] == 0.0 or result.score.total < 1.0
+    _assert_gone(docker_engine, result, runtime)
+
+
+def test_missing_image_never_starts(docker_engine: Any, images: dict, runs_dir: Path) -> None:
+    result, _ = _run(docker_engine, runs_dir, "eagc-test/does-not-exist:latest")
+    assert result.status is EpisodeStatus.AGENT_NO_START
+    assert result.failure is not None and result.failure.kind == "agent"
+    assert result.score.total == 0.0

@@ -1,0 +1,121 @@
+"""EAGC Track 1 environment: procedurally generated MuJoCo houses and a mobile robot.
+
+Light on import: the generator, layouts, tasks, vocabularies and top-down pictures need only
+numpy and pydantic. ``HouseEnv``, ``House`` and ``HouseSim`` load MuJoCo (and set
+``MUJOCO_GL=egl`` unless already set) on first access. Importing this package registers
+``eagc/House-v0`` and ``eagc/HouseChallenge-v0`` with Gymnasium.
+
+    >>> from simhost.track1 import HouseEnv, make_action
+    >>> env = HouseEnv()
+    >>> obs, info = env.reset(seed=7)
+    >>> obs, reward, terminated, truncated, info = env.step(make_action("move", forward=1.0))
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ._actions import PRIMITIVES, REASONS, ActionResult, make_action, parse_action
+from ._catalogue import (
+    AFFORDANCE_EFFECTS,
+    AFFORDANCES,
+    CATEGORIES,
+    COLOURS,
+    KINDS,
+    MAX_IDS,
+    MAX_ROOMS,
+    ROOM_TYPES,
+    STATES,
+    FurnitureSpec,
+    ItemSpec,
+    RoomFurniture,
+)
+from ._config import HouseEnvConfig
+from ._errors import (
+    ConfigError,
+    HouseError,
+    LayoutError,
+    PerturbationError,
+    StateError,
+    TaskError,
+)
+from ._generate import generate_house
+from ._graph import doors_on_path, is_two_edge_connected, shortest_room_path
+from ._layout import Door, Furniture, HouseLayout, HouseParams, Item, Room, Wall
+from ._register import CHALLENGE_ENV_ID, ENV_ID, register_envs
+from ._task import HouseTask
+from ._topdown import render_topdown, write_png
+from ._world import WorldState, ground_truth
+
+if TYPE_CHECKING:
+    from ._env import HouseEnv
+    from ._house import House
+    from ._sim import HouseSim
+
+_LAZY = {"HouseEnv": "._env", "House": "._house", "HouseSim": "._sim"}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def initial_ground_truth(layout: HouseLayout) -> dict[str, Any]:
+    """Ground truth of a layout's initial state (no MuJoCo needed; robot at the start)."""
+    return ground_truth(layout, WorldState.initial(layout), layout.start, (0.0, 0.0, 0.0))
+
+
+register_envs()
+
+__all__ = [
+    "AFFORDANCES",
+    "AFFORDANCE_EFFECTS",
+    "CATEGORIES",
+    "CHALLENGE_ENV_ID",
+    "COLOURS",
+    "ENV_ID",
+    "KINDS",
+    "MAX_IDS",
+    "MAX_ROOMS",
+    "PRIMITIVES",
+    "REASONS",
+    "ROOM_TYPES",
+    "STATES",
+    "ActionResult",
+    "ConfigError",
+    "Door",
+    "Furniture",
+    "FurnitureSpec",
+    "House",
+    "HouseEnv",
+    "HouseEnvConfig",
+    "HouseError",
+    "HouseLayout",
+    "HouseParams",
+    "HouseSim",
+    "HouseTask",
+    "Item",
+    "ItemSpec",
+    "LayoutError",
+    "PerturbationError",
+    "Room",
+    "RoomFurniture",
+    "StateError",
+    "TaskError",
+    "Wall",
+    "WorldState",
+    "doors_on_path",
+    "generate_house",
+    "ground_truth",
+    "initial_ground_truth",
+    "is_two_edge_connected",
+    "make_action",
+    "parse_action",
+    "register_envs",
+    "render_topdown",
+    "shortest_room_path",
+    "write_png",
+]

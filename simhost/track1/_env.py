@@ -1,0 +1,282 @@
+"""``HouseEnv``: the Gymnasium adapter of a Track 1 house."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ._actions import PRIMITIVES, ActionResult, parse_action
+from ._catalogue import CATEGORIES, COLOURS, KINDS, MAX_IDS, MAX_ROOMS, ROOM_TYPES, STATES
+from ._config import HouseEnvConfig
+from ._generate import generate_house
+from ._house import House
+from ._layout import HouseLayout, HouseParams
+from ._task import HouseTask
+from ._topdown import render_topdown
+
+_SEED_SPACE = 2**31 - 1
+
+
+class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
+    """A procedurally generated house with a mobile robot (EAGC Track 1).
+
+    Args:
+        layout: a fixed house; if None, ``reset(seed=...)`` generates one from the seed.
+        params: generator parameters when the layout is not fixed.
+        config: sensing, control and rendering options; keyword ``options`` override fields
+            (e.g. ``render_rgbd=True, image_size=(64, 48)``).
+        render_mode: None or ``"rgb_array"`` (a top-down picture).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        layout: HouseLayout | None = None,
+        *,
+        params: HouseParams | None = None,
+        config: HouseEnvConfig | None = None,
+        render_mode: str | None = None,
+        **options: Any,
+    ) -> None:
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.config = HouseEnvConfig.from_overrides(config, options)
+        self.params = params or HouseParams()
+        self.render_mode = render_mode
+        self._fixed = layout
+        self.house: House | None = House(layout, self.config) if layout is not None else None
+        self.task: HouseTask | None = None
+        self._last = ActionResult("reset", True)
+        self.observation_space = self._observation_space()
+        self.action_space = spaces.Dict(
+            [
+                ("primitive", spaces.Discrete(len(PRIMITIVES))),
+                ("move", spaces.Box(-1.0, 1.0, (2,), np.float32)),
+                ("target", spaces.Discrete(MAX_IDS)),
+                ("tool", spaces.Discrete(MAX_IDS)),
+            ]
+        )
+
+    def _observation_space(self) -> spaces.Dict:
+        cfg, k = self.config, self.config.max_detections
+        big = cfg.sensing_range + 1.0
+
+        def ints(lo: int, hi: int, shape: tuple[int, ...], dtype: Any = np.int32) -> spaces.Box:
+            return spaces.Box(lo, hi, shape, dtype)
+
+        obs: dict[str, spaces.Space[Any]] = {
+            "odometry": spaces.Box(
+                np.array([-10.0, -10.0, -math.pi], np.float32),
+                np.array([100.0, 100.0, math.pi], np.float32),
+                dtype=np.float32,
+            ),
+            "range_scan": spaces.Box(0.0, cfg.scan_range, (cfg.scan_rays,), np.float32),
+            "room": ints(-1, MAX_ROOMS - 1, (1,)),
+            "room_type": ints(-1, len(ROOM_TYPES) - 1, (1,)),
+            "held": ints(-1, MAX_IDS - 1, (1,)),
+            "last_action_ok": ints(0, 1, (1,), np.int8),
+            "collided": ints(0, 1, (1,), np.int8),
+            "det_mask": ints(0, 1, (k,), np.int8),
+            "det_id": ints(-1, MAX_IDS - 1, (k,)),
+            "det_kind": ints(-1, len(KINDS) - 1, (k,)),
+            "det_category": ints(-1, len(CATEGORIES) - 1, (k,)),
+            "det_colour": ints(-1, len(COLOURS) - 1, (k,)),
+            "det_state": ints(-1, len(STATES) - 1, (k,)),
+            "det_rel_pos": spaces.Box(-big, big, (k, 2), np.float32),
+        }
+        if cfg.render_rgbd:
+            w, h = cfg.image_size
+            obs["rgb"] = spaces.Box(0, 255, (h, w, 3), np.uint8)
+            obs["depth"] = spaces.Box(0.0, 100.0, (h, w), np.float32)
+            obs["segmentation"] = ints(-1, MAX_IDS - 1, (h, w))
+        return spaces.Dict(list(obs.items()))
+
+    # ----------------------------------------------------------------- gymnasium API
+    @property
+    def layout(self) -> HouseLayout:
+        """The current house (after the first reset when the layout is not fixed)."""
+        return self._house().layout
+
+    def _house(self) -> House:
+        if self.house is None:
+            raise gym.error.ResetNeeded("call reset() first: the house is chosen by reset's seed")
+        return self.house
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start an episode. Without a fixed layout, ``seed`` selects the house (same seed,
+        same house); with ``seed=None`` the next house comes from the env's seeded RNG.
+
+        ``options``: ``{"task": HouseTask | dict}`` sets the task of the shaped reward.
+        """
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = set(options) - {"task"}
+        if unknown:
+            raise ValueError(f"unknown reset options {sorted(unknown)}; only 'task' is understood")
+        if self._fixed is None:
+            house_seed = seed if seed is not None else int(self.np_random.integers(_SEED_SPACE))
+            if self.house is not None and self.house.layout.seed == house_seed:
+                self.house.reset()
+            else:
+                if self.house is not None:
+                    self.house.sim.close()
+                self.house = House(generate_house(house_seed, params=self.params), self.config)
+        else:
+            self._house().reset()
+        house = self._house()
+        task = options.get("task")
+        self.task = HouseTask.parse(task, house.layout) if task is not None else None
+        if self.task is not None and house.task_satisfied(self.task):
+            house.world.task_done = True  # already true at the start: nothing to reward
+        self._last = ActionResult("reset", True)
+        return self._observation(), self._info()
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """Run one primitive. A failed precondition changes nothing and says why in
+        ``info["action_result"]``."""
+        house = self._house()
+        parsed = parse_action(action)
+        if isinstance(parsed, ActionResult):
+            result = parsed
+            house.world.steps += 1
+        else:
+            primitive, forward, turn, target, tool = parsed
+            result = house.execute(primitive, forward=forward, turn=turn, target=target, tool=tool)
+        self._last = result
+        reward = 0.0
+        if self.task is not None:
+            if not result.ok:
+                reward -= self.config.failure_penalty
+            if not house.world.task_done and house.task_satisfied(self.task):
+                house.world.task_done = True
+                reward += 1.0
+        terminated = result.primitive == "done" and result.ok
+        return self._observation(), reward, terminated, False, self._info()
+
+    def render(self) -> np.ndarray | None:  # type: ignore[override]
+        """A top-down picture when ``render_mode="rgb_array"``."""
+        if self.render_mode != "rgb_array":
+            return None
+        return render_topdown(self)
+
+    def close(self) -> None:
+        """Release the renderer."""
+        if self.house is not None:
+            self.house.sim.close()
+
+    # ----------------------------------------------------------------- observations
+    def _observation(self) -> dict[str, np.ndarray]:
+        house, cfg, k = self._house(), self.config, self.config.max_detections
+        x, y, yaw = house.robot_pose
+        room = house.robot_room
+        dets = house.detections()[:k]
+        n = len(dets)
+        obs = {
+            "odometry": np.array([x, y, yaw], dtype=np.float32),
+            "range_scan": house.sim.range_scan(cfg.scan_rays, cfg.scan_range),
+            "room": np.array([room], dtype=np.int32),
+            "room_type": np.array(
+                [ROOM_TYPES.index(house.layout.rooms[room].type)], dtype=np.int32
+            ),
+            "held": np.array([house.world.held], dtype=np.int32),
+            "last_action_ok": np.array([int(self._last.ok)], dtype=np.int8),
+            "collided": np.array([int(self._last.collided)], dtype=np.int8),
+            "det_mask": np.zeros(k, np.int8),
+            "det_id": np.full(k, -1, np.int32),
+            "det_kind": np.full(k, -1, np.int32),
+            "det_category": np.full(k, -1, np.int32),
+            "det_colour": np.full(k, -1, np.int32),
+            "det_state": np.full(k, -1, np.int32),
+            "det_rel_pos": np.zeros((k, 2), np.float32),
+        }
+        if n:
+            obs["det_mask"][:n] = 1
+            obs["det_id"][:n] = [d.id for d in dets]
+            obs["det_kind"][:n] = [KINDS.index(d.kind) for d in dets]
+            obs["det_category"][:n] = [CATEGORIES.index(d.category) for d in dets]
+            obs["det_colour"][:n] = [COLOURS.index(d.colour) for d in dets]
+            obs["det_state"][:n] = [STATES.index(d.state) for d in dets]
+            obs["det_rel_pos"][:n] = [d.rel_pos for d in dets]
+        if cfg.render_rgbd:
+            w, h = cfg.image_size
+            obs["rgb"], obs["depth"], obs["segmentation"] = house.sim.render_rgbd(w, h)
+        return obs
+
+    def _info(self) -> dict[str, Any]:
+        house = self._house()
+        room = house.robot_room
+        info: dict[str, Any] = {
+            "action_result": {
+                "ok": self._last.ok,
+                "reason": self._last.reason,
+                "primitive": self._last.primitive,
+            },
+            "collided": self._last.collided,
+            "detections": [d.to_dict() for d in house.detections()],
+            "room": {"id": room, "type": house.layout.rooms[room].type},
+            "held": house.world.held,
+            "step": house.world.steps,
+            "sim_warnings": house.sim.warnings(),
+        }
+        if self.task is not None:
+            info["task_satisfied"] = house.task_satisfied(self.task)
+        return info
+
+    # ----------------------------------------------------------------- organizer API
+    def ground_truth(self) -> dict[str, Any]:
+        """Organizer-only ground truth (JSON-serialisable); never send it to the agent."""
+        return self._house().ground_truth()
+
+    def lock_door(self, door_id: int) -> dict[str, Any]:
+        """Close and lock a door; returns an event dict. Raises PerturbationError."""
+        return self._house().lock_door(door_id)
+
+    def relocate_object(self, object_id: int, room_id: int | None = None) -> dict[str, Any]:
+        """Move an item to a room (default: the backup area); returns an event dict."""
+        return self._house().relocate_object(object_id, room_id)
+
+    def make_container_unavailable(self, container_id: int) -> dict[str, Any]:
+        """Shut a container for good; returns an event dict."""
+        return self._house().make_container_unavailable(container_id)
+
+    def remove_tool(self, tool_id: int) -> dict[str, Any]:
+        """Remove a tool from the house; returns an event dict."""
+        return self._house().remove_tool(tool_id)
+
+    def shortest_path(
+        self, from_room: int, to_room: int, *, avoid_locked: bool = True
+    ) -> list[int]:
+        """Fewest-doors room path, both ends included; [] when none."""
+        return self._house().shortest_path(from_room, to_room, avoid_locked=avoid_locked)
+
+    def has_recoverable_path(
+        self, task: HouseTask | dict[str, Any] | None = None, *, rooms: tuple[int, ...] = ()
+    ) -> bool:
+        """True when, from the robot's room and avoiding locked doors, every listed room is
+        reachable and the task (default: the reset task) can still be completed."""
+        house = self._house()
+        chosen = self.task if task is None else HouseTask.parse(task, house.layout)
+        return not house.task_blockers(chosen, tuple(rooms))
+
+    def teleport_robot(self, x: float, y: float, yaw: float) -> None:
+        """Place the robot (tests and scenario setup; never an agent action)."""
+        self._house().teleport_robot(x, y, yaw)
+
+    def get_state(self) -> bytes:
+        """Full state for replay: MuJoCo integration state plus the symbolic world."""
+        return self._house().get_state()
+
+    def set_state(self, state: bytes) -> None:
+        """Restore :meth:`get_state` output of the same house."""
+        self._house().set_state(state)
+
+    def state_hash(self) -> str:
+        """sha256 (hex) of the full state."""
+        return self._house().state_hash()

@@ -1,0 +1,125 @@
+"""What the robot perceives: visibility, detections and reach.
+
+Visible means: within the sensing range (horizontal distance from the robot), and in line of
+sight from the robot's eye (``mj_ray`` against walls, doors, furniture and lids; items never
+occlude). The sensor is omnidirectional, so a robot sees into its room and through open
+doorways, never through walls or closed doors. An item inside a container is visible when
+the container is open (and available), the robot is on its opening side and the opening is
+in line of sight. Held and removed items are never detected.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from ._layout import Door, Furniture, HouseLayout, Item
+from ._mjcf import ROBOT_RADIUS
+from ._sim import HouseSim
+from ._world import WorldState
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One visible entity, as the agent sees it."""
+
+    id: int
+    kind: str
+    category: str
+    colour: str
+    rel_pos: tuple[float, float]
+    """Position in the robot frame: x ahead, y to the left (metres)."""
+    state: str
+    distance: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON-friendly form sent in ``info["detections"]``."""
+        return {
+            "id": self.id,
+            "kind": self.kind,
+            "category": self.category,
+            "colour": self.colour,
+            "rel_pos": [round(self.rel_pos[0], 4), round(self.rel_pos[1], 4)],
+            "state": self.state,
+        }
+
+
+def _points(
+    layout: HouseLayout,
+    world: WorldState,
+    sim: HouseSim,
+    entity: Door | Furniture | Item,
+    robot: tuple[float, float, float],
+) -> tuple[tuple[float, float], list[tuple[float, float, float]], int]:
+    """Reference xy, line-of-sight points and the instance a ray may hit, or no points."""
+    if isinstance(entity, Door):
+        cx, cy = entity.centre
+        return (cx, cy), [(cx, cy, 1.0), sim.door_panel_centre(entity)], entity.id
+    if isinstance(entity, Furniture):
+        w, d, h = entity.size
+        fx, fy = entity.front
+        top = (entity.pos[0], entity.pos[1], h - 0.02)
+        face = (entity.pos[0] + fx * (d / 2 - 0.02), entity.pos[1] + fy * (d / 2 - 0.02), h / 2)
+        return entity.pos, [top, face], entity.id
+    if entity.id == world.held or entity.id in world.removed:
+        return (0.0, 0.0), [], entity.id
+    rec_id, slot = world.places[entity.id]
+    rec = layout.entity(rec_id)
+    assert isinstance(rec, Furniture)
+    x, y, z = layout.item_position(entity, rec_id, slot)
+    if rec.kind == "container":
+        if world.container_state(rec_id) != "open":
+            return (x, y), [], entity.id
+        if rec.opening == "front":
+            fx, fy = rec.front
+            if (robot[0] - rec.pos[0]) * fx + (robot[1] - rec.pos[1]) * fy < rec.size[1] / 2:
+                return (x, y), [], entity.id
+        return (x, y), [rec.opening_point], rec_id
+    return (x, y), [(x, y, z), (x, y, z + entity.half_height - 0.005)], entity.id
+
+
+def detect(
+    layout: HouseLayout, world: WorldState, sim: HouseSim, sensing_range: float
+) -> list[Detection]:
+    """Every visible entity, nearest first (ties by id)."""
+    robot = sim.robot_pose()
+    rx, ry, yaw = robot
+    c, s = math.cos(yaw), math.sin(yaw)
+    out = []
+    for entity in (*layout.doors, *layout.furniture, *layout.items):
+        (ex, ey), points, instance = _points(layout, world, sim, entity, robot)
+        if not points:
+            continue
+        dist = math.hypot(ex - rx, ey - ry)
+        if dist > sensing_range:
+            continue
+        if not any(sim.line_of_sight(p, instance) for p in points):
+            continue
+        dx, dy = ex - rx, ey - ry
+        kind = "door" if isinstance(entity, Door) else entity.kind
+        out.append(
+            Detection(
+                id=entity.id,
+                kind=kind,
+                category="door" if isinstance(entity, Door) else entity.category,
+                colour=entity.colour if isinstance(entity, Item) else "none",
+                rel_pos=(c * dx + s * dy, -s * dx + c * dy),
+                state=world.visible_state(layout, entity.id),
+                distance=dist,
+            )
+        )
+    out.sort(key=lambda det: (round(det.distance, 6), det.id))
+    return out
+
+
+def footprint_distance(f: Furniture, x: float, y: float) -> float:
+    """Distance from a point to a furniture footprint (0 inside)."""
+    x0, y0, x1, y1 = f.footprint
+    return math.hypot(max(x0 - x, 0.0, x - x1), max(y0 - y, 0.0, y - y1))
+
+
+def robot_blocks(door: Door, x: float, y: float, margin: float = 0.03) -> bool:
+    """True when a robot at (x, y) is in the way of the door's swing."""
+    reach = ROBOT_RADIUS + margin
+    return door.swing_distance(x, y) < reach or door.panel_distance(x, y) < reach

@@ -1,0 +1,323 @@
+"""The MuJoCo side of a house: model, data, guarded controls, rays and rendering.
+
+Every control goes through :meth:`HouseSim.set_ctrl`, which refuses non-finite values and
+clips to the actuator's range, so NaN/Inf never reach ``data.ctrl``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # headless by default; only effective before mujoco loads
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ._layout import Door, Furniture, HouseLayout  # noqa: E402
+from ._mjcf import (  # noqa: E402
+    EYE_HEIGHT,
+    HAND,
+    HIDDEN_Z,
+    LAMP_RGBA,
+    SCAN_HEIGHT,
+    build_mjcf,
+    lid_pose,
+    yaw_quat,
+)
+from ._world import WorldState  # noqa: E402
+
+STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION
+_RAY_GROUPS = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)
+"""Line of sight: walls and furniture, doors, container lids (items never occlude)."""
+_SCAN_GROUPS = np.array([1, 1, 0, 0, 0, 0], dtype=np.uint8)
+"""Range scan: what the base can collide with (walls and furniture, doors)."""
+
+
+def _rgba(text: str) -> np.ndarray:
+    return np.array([float(v) for v in text.split()], dtype=np.float32)
+
+
+class HouseSim:
+    """MuJoCo model and data of one house, with name lookups and guarded access."""
+
+    def __init__(self, layout: HouseLayout, *, offscreen: tuple[int, int] = (640, 480)) -> None:
+        self.layout = layout
+        self.model = mujoco.MjModel.from_xml_string(build_mjcf(layout, offscreen=offscreen))
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        name = mujoco.mjtObj
+        self.robot_body = mujoco.mj_name2id(m, name.mjOBJ_BODY, "robot")
+        self.robot_geom = mujoco.mj_name2id(m, name.mjOBJ_GEOM, "robot_base")
+        self.robot_qpos = np.array(
+            [
+                m.jnt_qposadr[mujoco.mj_name2id(m, name.mjOBJ_JOINT, f"robot_{a}")]
+                for a in ("x", "y", "yaw")
+            ]
+        )
+        self.robot_dof = np.array(
+            [
+                m.jnt_dofadr[mujoco.mj_name2id(m, name.mjOBJ_JOINT, f"robot_{a}")]
+                for a in ("x", "y", "yaw")
+            ]
+        )
+        self.robot_act = np.array(
+            [mujoco.mj_name2id(m, name.mjOBJ_ACTUATOR, f"robot_{a}") for a in ("x", "y", "yaw")]
+        )
+        self.door_qpos: dict[int, int] = {}
+        self.door_dof: dict[int, int] = {}
+        self.door_act: dict[int, int] = {}
+        self.door_eq: dict[int, int] = {}
+        self.door_lamp: dict[int, int] = {}
+        for d in layout.doors:
+            j = mujoco.mj_name2id(m, name.mjOBJ_JOINT, f"door_{d.id}")
+            self.door_qpos[d.id], self.door_dof[d.id] = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j])
+            self.door_act[d.id] = mujoco.mj_name2id(m, name.mjOBJ_ACTUATOR, f"door_{d.id}")
+            self.door_eq[d.id] = mujoco.mj_name2id(m, name.mjOBJ_EQUALITY, f"lock_{d.id}")
+            self.door_lamp[d.id] = mujoco.mj_name2id(m, name.mjOBJ_GEOM, f"doorlamp_{d.id}")
+        self.mocap: dict[int, int] = {}
+        for prefix, ids in (
+            ("lid", [f.id for f in layout.furniture if f.kind == "container"]),
+            ("item", [i.id for i in layout.items]),
+        ):
+            for eid in ids:
+                body = mujoco.mj_name2id(m, name.mjOBJ_BODY, f"{prefix}_{eid}")
+                self.mocap[eid] = int(m.body_mocapid[body])
+        self.lid_geom = {
+            f.id: mujoco.mj_name2id(m, name.mjOBJ_GEOM, f"lid_{f.id}_0")
+            for f in layout.furniture
+            if f.kind == "container"
+        }
+        self.geom_instance = np.full(m.ngeom, -1, dtype=np.int32)
+        for g in range(m.ngeom):
+            gname = mujoco.mj_id2name(m, name.mjOBJ_GEOM, g) or ""
+            parts = gname.split("_")
+            if parts[0] in ("door", "doorlamp", "furn", "lid", "item") and len(parts) >= 2:
+                self.geom_instance[g] = int(parts[1])
+        self.ctrl_lo = m.actuator_ctrlrange[:, 0].copy()
+        self.ctrl_hi = m.actuator_ctrlrange[:, 1].copy()
+        self._renderer: mujoco.Renderer | None = None
+        self._ray_geom = np.zeros(1, dtype=np.int32)
+
+    # ----------------------------------------------------------------- state sync
+    def reset(self, world: WorldState, pose: tuple[float, float, float]) -> None:
+        """Reset the data to a symbolic state and a robot pose."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.set_robot_pose(*pose)
+        self.sync(world)
+
+    def sync(self, world: WorldState) -> None:
+        """Make doors, lids, items and indicator colours match the symbolic state (teleport)."""
+        for door in self.layout.doors:
+            self.set_door(door, world.doors[door.id])
+        for f in self.layout.furniture:
+            if f.kind == "container":
+                self.set_lid(f, world.container_state(f.id) == "open")
+        for item in self.layout.items:
+            self.place_item_mocap(world, item.id)
+        self.sync_visuals(world)
+        mujoco.mj_forward(self.model, self.data)
+
+    def sync_visuals(self, world: WorldState) -> None:
+        """Model-side colours (not part of the MuJoCo state) from the symbolic state."""
+        for door_id, geom in self.door_lamp.items():
+            self.model.geom_rgba[geom] = _rgba(LAMP_RGBA[world.doors[door_id] == "locked"])
+        for fid, geom in self.lid_geom.items():
+            grey = fid in world.unavailable
+            self.model.geom_rgba[geom] = (0.3, 0.3, 0.3, 1) if grey else (0.35, 0.45, 0.62, 1)
+
+    def set_door(self, door: Door, state: str) -> None:
+        """Teleport a door to its state's angle and set its lock."""
+        angle = door.open_angle if state == "open" else 0.0
+        self.data.qpos[self.door_qpos[door.id]] = angle
+        self.data.qvel[self.door_dof[door.id]] = 0.0
+        self.set_ctrl(self.door_act[door.id], angle)
+        self.data.eq_active[self.door_eq[door.id]] = 1 if state == "locked" else 0
+
+    def set_lid(self, f: Furniture, is_open: bool) -> None:
+        """Move a container's lid (mocap) open or closed."""
+        pos, quat = lid_pose(f, is_open)
+        self.data.mocap_pos[self.mocap[f.id]] = pos
+        self.data.mocap_quat[self.mocap[f.id]] = quat
+
+    def place_item_mocap(self, world: WorldState, item_id: int) -> None:
+        """Put an item's body where the symbolic state says: slot, hand or hidden."""
+        k = self.mocap[item_id]
+        if item_id == world.held:
+            self.data.mocap_pos[k], self.data.mocap_quat[k] = self.hand_pose()
+        elif item_id in world.removed:
+            self.data.mocap_pos[k] = (0.0, 0.0, HIDDEN_Z)
+        else:
+            rec_id, slot = world.places[item_id]
+            item = self.layout.entity(item_id)
+            rec = self.layout.entity(rec_id)
+            assert item is not None and isinstance(rec, Furniture)
+            self.data.mocap_pos[k] = self.layout.item_position(item, rec_id, slot)  # type: ignore[arg-type]
+            self.data.mocap_quat[k] = yaw_quat(rec.yaw)
+
+    # ----------------------------------------------------------------- robot
+    def robot_pose(self) -> tuple[float, float, float]:
+        """(x, y, yaw) with yaw wrapped to [-pi, pi]."""
+        x, y, yaw = (float(v) for v in self.data.qpos[self.robot_qpos])
+        return (x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
+
+    def set_robot_pose(self, x: float, y: float, yaw: float) -> None:
+        """Teleport the robot (zero velocity, controllers aimed at the pose)."""
+        for k, v in enumerate((x, y, yaw)):
+            self.data.qpos[self.robot_qpos[k]] = v
+            self.data.qvel[self.robot_dof[k]] = 0.0
+        self.set_robot_ctrl(x, y, yaw)
+
+    def set_robot_ctrl(self, x: float, y: float, yaw: float) -> None:
+        """Aim the base's position controllers."""
+        for k, v in enumerate((x, y, yaw)):
+            self.set_ctrl(int(self.robot_act[k]), v)
+
+    def wrap_yaw(self) -> None:
+        """Bring the yaw joint back into [-pi, pi] (same physical pose)."""
+        q = self.robot_qpos[2]
+        yaw = float(self.data.qpos[q])
+        if abs(yaw) > math.pi:
+            wrapped = math.atan2(math.sin(yaw), math.cos(yaw))
+            self.data.qpos[q] = wrapped
+            self.set_ctrl(
+                int(self.robot_act[2]), float(self.data.ctrl[self.robot_act[2]]) + wrapped - yaw
+            )
+
+    def hand_pose(self) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        """World position and orientation of the held-item point."""
+        x, y, yaw = self.robot_pose()
+        c, s = math.cos(yaw), math.sin(yaw)
+        return (x + c * HAND[0] - s * HAND[1], y + s * HAND[0] + c * HAND[1], HAND[2]), yaw_quat(
+            yaw
+        )
+
+    def set_ctrl(self, actuator: int, value: float) -> None:
+        """The only way a control reaches MuJoCo: finite, clipped to the actuator's range."""
+        if not math.isfinite(value):
+            raise ValueError(f"non-finite control {value!r} for actuator {actuator}")
+        self.data.ctrl[actuator] = min(max(value, self.ctrl_lo[actuator]), self.ctrl_hi[actuator])
+
+    def robot_in_contact(self) -> bool:
+        """True when the robot's base touches a wall, a door or furniture."""
+        n = self.data.ncon
+        if n == 0:
+            return False
+        return bool(np.any(self.data.contact.geom[:n] == self.robot_geom))
+
+    def step(self, held: int) -> bool:
+        """One physics step, carrying a held item; returns whether the robot is in contact."""
+        mujoco.mj_step(self.model, self.data)
+        if held >= 0:
+            k = self.mocap[held]
+            self.data.mocap_pos[k], self.data.mocap_quat[k] = self.hand_pose()
+        mujoco.mj_fwdPosition(self.model, self.data)
+        return self.robot_in_contact()
+
+    def forward(self) -> None:
+        """Recompute derived quantities (positions, contacts) after a teleport."""
+        mujoco.mj_forward(self.model, self.data)
+
+    # ----------------------------------------------------------------- sensing
+    def range_scan(self, n: int, max_range: float) -> np.ndarray:
+        """Planar scan at SCAN_HEIGHT from the base, n rays counter-clockwise from ahead."""
+        x, y, yaw = self.robot_pose()
+        angles = yaw + np.arange(n) * (2 * math.pi / n)
+        vec = np.zeros((n, 3))
+        vec[:, 0], vec[:, 1] = np.cos(angles), np.sin(angles)
+        geomid = np.zeros(n, dtype=np.int32)
+        dist = np.zeros(n)
+        mujoco.mj_multiRay(
+            self.model,
+            self.data,
+            np.array([x, y, SCAN_HEIGHT]),
+            vec.reshape(-1),
+            _SCAN_GROUPS,
+            1,
+            self.robot_body,
+            geomid,
+            dist,
+            None,
+            n,
+            max_range,
+        )
+        dist[(dist < 0) | (dist > max_range)] = max_range
+        return dist.astype(np.float32)
+
+    def line_of_sight(self, point: tuple[float, float, float], instance: int) -> bool:
+        """True when nothing but the entity itself lies between the robot's eye and a point."""
+        x, y, _ = self.robot_pose()
+        eye = np.array([x, y, EYE_HEIGHT])
+        vec = np.asarray(point, dtype=float) - eye
+        length = float(np.linalg.norm(vec))
+        if length < 1e-6:
+            return True
+        hit = mujoco.mj_ray(
+            self.model,
+            self.data,
+            eye,
+            vec / length,
+            _RAY_GROUPS,
+            1,
+            self.robot_body,
+            self._ray_geom,
+        )
+        if hit < 0 or hit >= length - 0.05:
+            return True
+        return int(self.geom_instance[self._ray_geom[0]]) == instance
+
+    def door_panel_centre(self, door: Door) -> tuple[float, float, float]:
+        """World centre of a door's panel (follows the hinge)."""
+        angle = float(self.data.qpos[self.door_qpos[door.id]]) + door.yaw
+        x, y = door.hinge
+        return (x + math.cos(angle) * door.width / 2, y + math.sin(angle) * door.width / 2, 1.0)
+
+    # ----------------------------------------------------------------- state and rendering
+    def get_physics(self) -> np.ndarray:
+        """The full integration state (``mjSTATE_INTEGRATION``)."""
+        out = np.empty(mujoco.mj_stateSize(self.model, STATE_SPEC))
+        mujoco.mj_getState(self.model, self.data, out, STATE_SPEC)
+        return out
+
+    def set_physics(self, state: np.ndarray) -> None:
+        """Restore an integration state and recompute derived quantities."""
+        mujoco.mj_setState(self.model, self.data, state, STATE_SPEC)
+        mujoco.mj_forward(self.model, self.data)
+
+    def state_size(self) -> int:
+        """Length of :meth:`get_physics`."""
+        return int(mujoco.mj_stateSize(self.model, STATE_SPEC))
+
+    def warnings(self) -> dict[str, int]:
+        """MuJoCo warning counters by name (``mjWARN_*`` without the prefix, lower case)."""
+        return {
+            name.removeprefix("mjWARN_").lower(): int(self.data.warning[int(value)].number)
+            for name, value in mujoco.mjtWarning.__members__.items()
+            if name != "mjNWARNING"
+        }
+
+    def render_rgbd(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """RGB uint8[H,W,3], depth float32[H,W] (metres) and instance ids int32[H,W] (-1: none)."""
+        if self._renderer is None:
+            self._renderer = mujoco.Renderer(self.model, height, width)
+            self._scene_option = mujoco.MjvOption()
+            self._scene_option.geomgroup[:] = (1, 1, 1, 1, 1, 0)  # everything but the robot
+        r = self._renderer
+        r.update_scene(self.data, camera="eye", scene_option=self._scene_option)
+        rgb = r.render().copy()
+        r.enable_depth_rendering()
+        depth = r.render().astype(np.float32)
+        r.disable_depth_rendering()
+        r.enable_segmentation_rendering()
+        seg = r.render()
+        r.disable_segmentation_rendering()
+        ids = np.full(seg.shape[:2], -1, dtype=np.int32)
+        is_geom = (seg[:, :, 1] == int(mujoco.mjtObj.mjOBJ_GEOM)) & (seg[:, :, 0] >= 0)
+        ids[is_geom] = self.geom_instance[seg[:, :, 0][is_geom]]
+        return rgb, depth, ids
+
+    def close(self) -> None:
+        """Release the renderer, if any."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

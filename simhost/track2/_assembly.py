@@ -1,0 +1,236 @@
+"""Assembly: stack two or three square parts, in order, into a tray and align them.
+
+Parts: ``tray`` (fixed low walls), ``part1``, ``part2``, ``part3`` (free boxes of decreasing
+size; ``part3`` is a zero padding row when ``n_parts == 2``). ``part1`` goes into the tray,
+each next part onto the previous one.
+
+A part is *placed* when it rests on its support (tray floor or the previous part, height
+within 5 mm), its centre is within ``XY_TOL`` of the support's centre (within the tray
+clearance plus 2 mm for ``part1``), its yaw matches the support's modulo pi/2 within
+``YAW_TOL``, it is level, and the gripper does not touch it.
+
+Stages: ``reach_partK -> grasp_partK -> transport_partK -> place_partK`` for K = 1..n.
+Success: every part placed. Events: ``grasped``/``released``, ``lifted``, ``placed``
+(parts ``part1``..``part3``). The task states no goal: the goal vector is zero.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ._bench import WIDTH_MAX, Scene, quat_z, wrap
+from ._family import (
+    Evaluation,
+    FamilyTask,
+    Plan,
+    box_walls,
+    crit,
+    grip,
+    idle,
+    move,
+    nearest_yaw,
+    pick,
+    servo,
+    truth_doc,
+    var,
+)
+
+if TYPE_CHECKING:
+    from ._env import BenchEnv
+    from ._sim import Sim
+
+SCALES = (1.0, 0.85, 0.72)
+XY_TOL = 0.008
+YAW_TOL = 0.1
+WALL_H = 0.008
+WALL_T = 0.012
+
+
+class AssemblyTask(FamilyTask):
+    family = "assembly"
+    part_names = ("tray", "part1", "part2", "part3")
+    max_steps = 600
+
+    def __init__(self, params: Any) -> None:
+        super().__init__(params)
+        p = params
+        self.n = int(p.value("n_parts"))
+        self.names = [f"part{i + 1}" for i in range(self.n)]
+        self.half = [p.f("part_half") * k for k in SCALES[: self.n]]
+        self.H = p.f("part_height")
+        self.clear = p.f("tray_clearance")
+        self.tray_xy = np.array([p.f("tray_x"), p.f("tray_y")])
+        self.tray_yaw = p.f("tray_yaw")
+        self.start = [
+            np.array([p.f(f"p{i + 1}_x"), p.f(f"p{i + 1}_y"), p.f(f"p{i + 1}_yaw")])
+            for i in range(self.n)
+        ]
+
+    def scene(self) -> Scene:
+        fr = f'friction="{self.p.f("part"):.4f} 0.005 0.0001"'
+        inner = self.half[0] + self.clear / 2
+        walls = "".join(box_walls(inner, inner, WALL_T, WALL_H))
+        colours = ("0.2 0.6 0.3 1", "0.9 0.75 0.2 1", "0.3 0.4 0.85 1")
+        bodies = [
+            f'<body name="tray" pos="{self.tray_xy[0]:.5f} {self.tray_xy[1]:.5f} 0" '
+            f'quat="{quat_z(self.tray_yaw)}">{walls}</body>'
+        ]
+        for i, (name, h, st) in enumerate(zip(self.names, self.half, self.start, strict=True)):
+            bodies.append(
+                f'<body name="{name}" pos="{st[0]:.5f} {st[1]:.5f} {self.H / 2 + 0.0005:.5f}" '
+                f'quat="{quat_z(st[2])}"><freejoint name="{name}"/>'
+                f'<geom type="box" size="{h:.5f} {h:.5f} {self.H / 2:.5f}" density="500" {fr} '
+                f'rgba="{colours[i]}"/></body>'
+            )
+        return Scene(bodies="\n    ".join(bodies))
+
+    def bind(self, sim: Sim) -> None:
+        super().bind(sim)
+        self.tray = sim.bid("tray")
+        self.ids = [sim.bid(n) for n in self.names]
+
+    def loose_parts(self) -> dict[str, int]:
+        return dict(zip(self.names, self.ids, strict=True))
+
+    def stages(self) -> tuple[str, ...]:
+        subs = ("reach", "grasp", "transport", "place")
+        return tuple(f"{sub}_{name}" for name in self.names for sub in subs)
+
+    def parts(self) -> np.ndarray:
+        return self.pad([self.row(self.tray), *(self.row(b) for b in self.ids)])
+
+    # -- reading -------------------------------------------------------------------------------
+    def support(self, i: int) -> tuple[np.ndarray, float, float]:
+        """Centre xy, top z and yaw of what part ``i`` goes onto."""
+        if i == 0:
+            return self.tray_xy, 0.0, self.tray_yaw
+        b = self.ids[i - 1]
+        pos = self.s.pos(b)
+        return pos[:2], float(pos[2] + self.H / 2), self.s.yaw(b)
+
+    def offsets(self, i: int) -> tuple[np.ndarray, float, float]:
+        """Part ``i``'s xy offset, bottom height above and yaw error against its support."""
+        xy, top, yaw = self.support(i)
+        pos = self.s.pos(self.ids[i])
+        dz = float(pos[2] - self.H / 2 - top)
+        dyaw = wrap(nearest_yaw(yaw - self.s.yaw(self.ids[i]), math.pi / 2))
+        return xy - pos[:2], dz, dyaw
+
+    def posed(self, i: int) -> bool:
+        err, dz, dyaw = self.offsets(i)
+        tol = self.clear / 2 + 0.002 if i == 0 else XY_TOL
+        return bool(
+            np.linalg.norm(err) < tol
+            and abs(dz) < 0.005
+            and abs(dyaw) < YAW_TOL
+            and self.s.tilt(self.ids[i]) < 0.1
+        )
+
+    def evaluate(self) -> Evaluation:
+        s = self.s
+        flags: dict[str, bool] = {}
+        first: int | None = None
+        for i, (name, b) in enumerate(zip(self.names, self.ids, strict=True)):
+            posed = self.posed(i)
+            placed = posed and not s.touching(b)
+            flags[f"grasped:{name}"] = s.grasping(b)
+            flags[f"lifted:{name}"] = not posed and s.pos(b)[2] > self.H / 2 + 0.01
+            flags[f"placed:{name}"] = placed
+            if first is None and not placed:
+                first = i
+        if first is None:
+            return Evaluation(self.stages()[-1], 1.0, True, flags)
+        i, name, b = first, self.names[first], self.ids[first]
+        err, dz, _ = self.offsets(i)
+        if self.posed(i):
+            return Evaluation(f"place_{name}", 0.9, False, flags)
+        if s.grasping(b) and s.pos(b)[2] > self.H / 2 + 0.005:
+            d = float(np.linalg.norm(err))
+            if d < 0.015:
+                return Evaluation(f"place_{name}", 0.8 * (1 - min(1.0, abs(dz) / 0.05)), False,
+                                  flags)
+            d0 = float(np.linalg.norm(self.start[i][:2] - self.support(i)[0]))
+            return Evaluation(f"transport_{name}", 1.0 - d / max(d0, 1e-6), False, flags)
+        ee, pos = s.ee(), s.pos(b)
+        top = pos + np.array([0.0, 0.0, self.H / 2])
+        if np.linalg.norm(ee[:2] - pos[:2]) < self.half[i] and ee[2] < top[2]:
+            return Evaluation(f"grasp_{name}", 0.5 if s.grasping(b) else 0.0, False, flags)
+        dist = float(np.linalg.norm(ee[:3] - top))
+        return Evaluation(f"reach_{name}", 1.0 - dist / 0.3, False, flags)
+
+    def truth(self) -> dict[str, Any]:
+        variables = [var("ee_pose", "pose"), var("gripper_width", "length"),
+                     var("tray_pose", "pose", "tray")]
+        pre: dict[str, list[str]] = {}
+        success = []
+        for i, name in enumerate(self.names):
+            below = "tray" if i == 0 else self.names[i - 1]
+            variables += [
+                var(f"{name}_pose", "pose", name),
+                var(f"{name}_grasped", "bool", name),
+                var(f"{name}_offset", "length", name),
+                var(f"{name}_yaw_error", "angle", name),
+                var(f"{name}_placed", "bool", name),
+            ]
+            pre[f"grasp_{name}"] = ["gripper_open", f"gripper_at_{name}"]
+            pre[f"transport_{name}"] = [f"{name}_grasped"]
+            pre[f"place_{name}"] = [f"{name}_grasped", f"{name}_over_{below}"] + (
+                [f"{below}_placed"] if i else []
+            )
+            success.append(crit(f"{name}_placed", "==", True))
+        return truth_doc(
+            self,
+            variables,
+            {
+                "n_parts": self.n,
+                "order": ["tray", *self.names],
+                "part_half_widths": [round(h, 6) for h in self.half],
+                "part_height": round(self.H, 6),
+                "tray_clearance": round(self.clear, 6),
+                "xy_tolerance": XY_TOL,
+                "yaw_tolerance": YAW_TOL,
+                "yaw_symmetry": round(math.pi / 2, 6),
+                "max_grip_width": WIDTH_MAX,
+            },
+            pre,
+            success,
+        )
+
+    # -- expert --------------------------------------------------------------------------------
+    def plan(self, env: BenchEnv) -> Plan:
+        s = self.s
+        for i, b in enumerate(self.ids):
+            pos = s.pos(b)
+            yaw = s.yaw(b)
+            _, _, sup_yaw = self.support(i)
+            turn = nearest_yaw(sup_yaw - yaw, math.pi / 2)
+            yaw0 = nearest_yaw(yaw, math.pi / 2, -turn / 2)
+            open_w = min(WIDTH_MAX, 2 * self.half[i] + 0.03)
+            g = min(0.02, self.H - WALL_H - 0.004)
+            carry = max(i, 1) * self.H + 0.025 + self.H - g
+            yield from pick(env, pos + [0, 0, self.H / 2], yaw0, open_w, g, carry)
+            for _ in range(2):
+                err, _, _ = self.offsets(i)
+                ee = s.ee()
+                yield from move(env, np.array([*(ee[:2] + err), carry]), yaw0 + turn, 0.0,
+                                tol=0.003)
+
+            def error(i: int = i) -> tuple[np.ndarray, float]:
+                err, _, dyaw = self.offsets(i)
+                return err, dyaw
+
+            yield from servo(env, error, carry, tol=0.001, yaw_tol=0.02)
+            for _ in range(40):  # lower onto the support
+                _, dz, _ = self.offsets(i)
+                if dz < 0.002:
+                    break
+                ee = s.ee()
+                step = min(0.008, max(0.002, dz / 2))
+                yield from move(env, np.array([*ee[:2], ee[2] - step]), ee[3], 0.0, max_steps=1)
+            yield from grip(env, open_w, 6)
+            ee = s.ee()
+            yield from move(env, np.array([*ee[:2], ee[2] + 0.04]), ee[3], open_w, tol=0.005)
+        yield from idle(env)

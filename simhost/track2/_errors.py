@@ -1,0 +1,19 @@
+"""Errors of the Track 2 bench: one root, one subclass per kind of mistake."""
+
+from __future__ import annotations
+
+
+class Track2Error(Exception):
+    """Root of every error raised by ``simhost.track2``."""
+
+
+class InstanceParamsError(Track2Error, ValueError):
+    """Raised when instance parameters do not match their family's parameter table."""
+
+
+class StateError(Track2Error, ValueError):
+    """Raised when ``BenchEnv.set_state`` receives bytes that are not a state of this instance."""
+
+
+class DemoPacketError(Track2Error, ValueError):
+    """Raised when a demonstration packet folder is missing, malformed or inconsistent."""

@@ -31,8 +31,19 @@ HASH_LABEL = "eagc.build-hash"
 MIRROR = "http://deb.debian.org/debian"
 CLIENT_SOURCES = ("pyproject.toml", "schemas", "simhost/__init__.py", "simhost/agent.py",
                   "simhost/_wire.py", "simhost/_transport.py")
-#: Example agents: image tag → folder with a Dockerfile.
-EXAMPLES = {"eagc/sanity-agent:latest": REPO / "examples" / "sanity_agent"}
+def example_agents() -> dict[str, Path]:
+    """Every ``examples/<name>/Dockerfile``, as tag ``eagc/<name with - for _>:latest``.
+
+    A folder whose Dockerfile starts ``FROM eagc/<other example>`` is built after it.
+    """
+    found = {
+        f"eagc/{d.name.replace('_', '-')}:latest": d
+        for d in sorted((REPO / "examples").iterdir())
+        if (d / "Dockerfile").is_file()
+    }
+    first = {t: d for t, d in found.items() if "FROM eagc/agent-base" in
+             (d / "Dockerfile").read_text()}
+    return {**first, **{t: d for t, d in found.items() if t not in first}}
 
 Say = Callable[[str], None]
 
@@ -145,7 +156,7 @@ def build_all(say: Say = print, *, force: bool = False, client: Any | None = Non
     """Base, agent base and every example agent. Returns the tags."""
     client = client or docker_client()
     tags = [build_base(client, say, force=force), build_agent_base(client, say, force=force)]
-    for tag, folder in EXAMPLES.items():
+    for tag, folder in example_agents().items():
         tags.append(build_folder(client, folder, tag, say, force=force))
     return tags
 

@@ -19,8 +19,15 @@ images_app = typer.Typer(help="Build the base, agent-base and example images off
 app.add_typer(images_app, name="images")
 console = Console()
 
-#: Example agents: what `--runtime local` runs instead of the image of the same name.
-LOCAL_COMMANDS = {"eagc/sanity-agent:latest": "python examples/sanity_agent/agent.py"}
+
+def local_command(image: str) -> str:
+    """What ``--runtime local`` runs for an example image: its folder's agent.py."""
+    from orchestrator._images import example_agents
+
+    folder = example_agents().get(image)
+    if folder is None:
+        return image  # already a command line
+    return f"python {folder / 'agent.py'}"
 
 
 def _docker_answers() -> bool:
@@ -105,7 +112,7 @@ def demo(
         with console.status("building images offline (first time: about a minute)…"):
             build_all(say=lambda m: console.print(f"[dim]{m}[/]"))
     else:
-        image = LOCAL_COMMANDS[image]
+        image = local_command(image)
     seed = random.randrange(1 << 31) if seed is None else seed
     console.print(f"sanity episode, seed {seed}, runtime {runtime}")
     raise typer.Exit(_run_one("sanity", image, runtime, seed, "challenge", 1.0, None, 512, 1.0,

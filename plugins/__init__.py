@@ -4,12 +4,13 @@ Public API: ``TrackPlugin``, ``Scenario``, ``ScoringInput``, ``FileRule``, ``loa
 ``available_tracks``, ``PluginError``. The conformance suite is ``plugins.conformance``.
 """
 
-from plugins._base import FileRule, Scenario, ScoringInput, TrackPlugin
+from plugins._base import Column, FileRule, Scenario, ScoringInput, TrackPlugin
 from plugins._registry import GROUP, PluginError, available_tracks, load_track, validate_plugin
 from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
 
 __all__ = [
     "GROUP",
+    "Column",
     "FileRule",
     "Observation",
     "PluginError",

@@ -13,14 +13,14 @@ scores the episode. Run ``plugins.conformance.TrackConformance`` against any new
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
 from pydantic import BaseModel
 
-from schemas import FileCheck, SchemaError, ScoreCard, parse_json, parse_jsonl
+from schemas import EpisodeResult, FileCheck, SchemaError, ScoreCard, parse_json, parse_jsonl
 from schemas._result import EpisodeStatus
 from simhost._episode import StageSpec, TrackEpisode
 
@@ -60,8 +60,34 @@ class ScoringInput:
     protocol_errors: int
 
 
+@dataclass(frozen=True)
+class Column:
+    """A leaderboard column: ``key`` in the row ``summarize`` returns."""
+
+    key: str
+    title: str
+    fmt: str = "{:.1f}"
+    lower_is_better: bool = False
+
+
+def _mean(values: Sequence[float]) -> float | None:
+    return sum(values) / len(values) if values else None
+
+
 class TrackPlugin(ABC):
-    """A track: stages, scenarios, episodes, file checks and scoring."""
+    """A track: stages, scenarios, episodes, file checks, scoring and its leaderboard."""
+
+    #: Leaderboard columns after the team (override with the track's table layout).
+    columns: ClassVar[tuple[Column, ...]] = (
+        Column("final", "Final"),
+        Column("task_success", "Task Succ. %"),
+        Column("invalid_actions", "Invalid Act/Ep", lower_is_better=True),
+        Column("latency_ms", "Latency ms", "{:.0f}", lower_is_better=True),
+        Column("peak_mem_gb", "Peak Mem GB", "{:.2f}", lower_is_better=True),
+        Column("runtime_min", "Runtime min", "{:.1f}", lower_is_better=True),
+    )
+    #: Row keys that break ties after ``final``, in order (paper: task success first).
+    tie_breaks: ClassVar[tuple[str, ...]] = ("task_success", "invalid_actions", "runtime_min")
 
     #: Name used in campaigns and on the command line (the entry-point name).
     name: ClassVar[str]
@@ -116,6 +142,41 @@ class TrackPlugin(ABC):
             except SchemaError as e:
                 checks.append(FileCheck(name=fname, ok=False, size=len(data), reason=str(e)))
         return parsed, checks
+
+    def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:
+        """One submission's leaderboard row from its scored episodes, on a 0–100 scale.
+
+        Default: the mean total per split, ``final`` as the split-weighted mean (paper
+        eq. 2; the plain mean when one split), score metrics averaged (``task_success``
+        etc. as percentages), invalid actions per episode, median agent latency, peak
+        memory and runtime. Tracks override it for their table's columns.
+        """
+        by_split: dict[str, list[float]] = {}
+        for r in results:
+            by_split.setdefault(r.split, []).append(100.0 * r.score.total)
+        row: dict[str, float | None] = {s: _mean(v) for s, v in by_split.items()}
+        weights = {s: self.splits.get(s, (1.0, {}))[0] for s in by_split}
+        if len(by_split) == 1:
+            row["final"] = _mean([100.0 * r.score.total for r in results])
+        else:
+            total_w = sum(weights.values())
+            row["final"] = sum(weights[s] * (row[s] or 0.0) for s in by_split) / total_w
+        keys = {k for r in results for k in r.score.metrics}
+        for k in sorted(keys):
+            vals = [r.score.metrics[k] for r in results if k in r.score.metrics]
+            scale = 1.0 if k == "invalid_actions" else 100.0
+            row[k] = None if not vals else scale * sum(vals) / len(vals)
+        row["invalid_actions"] = _mean(
+            [r.stats.invalid_actions + sum(
+                n for c, n in r.stats.protocol_errors.items() if c != "invalid_action")
+             for r in results])
+        lat = [r.stats.latency_ms_median for r in results if r.stats.latency_ms_median is not None]
+        row["latency_ms"] = sorted(lat)[len(lat) // 2] if lat else None
+        mem = [r.stats.peak_memory_bytes for r in results if r.stats.peak_memory_bytes]
+        row["peak_mem_gb"] = max(mem) / 2**30 if mem else None
+        row["runtime_min"] = _mean([r.stats.wall_s / 60 for r in results])
+        row["episodes"] = float(len(results))
+        return row
 
     def parse_snapshot(self, files: Mapping[str, bytes]) -> dict[str, Any]:
         """The files of one stage-end snapshot that parse (used by scorers)."""

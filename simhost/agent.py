@@ -212,7 +212,8 @@ class RemoteEnv:
     def _wait(self, buf: bytes, deadline: float | None, resend_every_s: float | None) -> bytes:
         if deadline is None and resend_every_s is None:
             return self._sub.recv().payload.to_bytes()
-        resend_at = None if resend_every_s is None else time.monotonic() + resend_every_s
+        started = time.monotonic()
+        resend_at = None if resend_every_s is None else started + resend_every_s
         while True:
             sample = self._sub.try_recv()
             if sample is not None:
@@ -224,7 +225,9 @@ class RemoteEnv:
                 # Only hello is resent: its subscription may not have reached the host yet.
                 self._pub.put(buf)
                 resend_at = now + (resend_every_s or 1.0)
-            time.sleep(0.0005)
+            # A FIFO channel has no timed wait: poll, yielding at once while a reply is
+            # likely close, then gently.
+            time.sleep(0 if now - started < 0.005 else 0.0002)
 
     def _timestep(self, reply: dict[str, Any]) -> TimeStep:
         obs = dict(reply.get("observation") or {})

@@ -264,7 +264,7 @@ def _measure(call: Any, warmup: int, n: int) -> list[int]:
 def client_ours(sock: str, payload: str, warmup: int, n: int) -> list[int]:
     from simhost.agent import RemoteEnv
 
-    env = RemoteEnv(f"unixsock-stream/{sock}", EPISODE, timeout_s=30.0)
+    env = RemoteEnv(f"unixsock-stream/{sock}", EPISODE)  # the default a team uses
     try:
         env.hello(agent="bench")
         env.reset()

@@ -1,0 +1,49 @@
+"""The development runtime: the same worker with the agent as a plain process."""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from orchestrator._local import LocalProcessRuntime
+from orchestrator._worker import EpisodeSpec, run_episode
+from schemas import EpisodeStatus, Limits
+
+AGENT = Path(__file__).resolve().parents[2] / "examples" / "sanity_agent" / "agent.py"
+
+
+def _runs() -> Path:
+    return Path(tempfile.mkdtemp(prefix="eagc-", dir="/tmp"))
+
+
+def test_sanity_episode_as_a_local_process() -> None:
+    result = run_episode(
+        EpisodeSpec(track="sanity", image=f"python {AGENT}", seed=7, split="challenge",
+                    runs_dir=_runs()),
+        LocalProcessRuntime(quiet=True),
+    )
+    assert result.status is EpisodeStatus.COMPLETED, result.failure
+    assert result.runtime == "local"
+    assert result.score.total > 0.5
+    assert {f.name for f in result.files if f.ok} == {"world_model.json", "episode_log.jsonl"}
+
+
+def test_a_command_that_does_not_exist_never_starts() -> None:
+    result = run_episode(
+        EpisodeSpec(track="sanity", image="/nonexistent/agent", seed=1, runs_dir=_runs()),
+        LocalProcessRuntime(quiet=True),
+    )
+    assert result.status is EpisodeStatus.AGENT_NO_START
+    assert result.score.total == 0.0
+
+
+def test_step_caps_end_stages_whatever_the_machine_speed() -> None:
+    # A 3-step cap per stage: the baseline cannot finish, the outcome is the same anywhere.
+    result = run_episode(
+        EpisodeSpec(track="sanity", image=f"python {AGENT}", seed=7, split="challenge",
+                    limits=Limits(max_steps_per_stage=3), runs_dir=_runs()),
+        LocalProcessRuntime(quiet=True),
+    )
+    assert result.status is EpisodeStatus.AGENT_TIMEOUT
+    assert result.failure is not None and result.failure.limit_hit == "step cap of 'reach'"
+    assert result.stats.steps <= 6

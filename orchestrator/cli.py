@@ -119,6 +119,40 @@ def demo(
                               runs_dir, False))
 
 
+@app.command("test")
+def test_agent(
+    image: Annotated[str, typer.Argument(help="Your image (a command with --runtime local).")],
+    track: Annotated[str, typer.Option(help="Track to test against.")] = "sanity",
+    runtime: Annotated[str, typer.Option(help="docker (the sandbox) or local.")] = "docker",
+    seed: Annotated[int, typer.Option(help="A public seed.")] = 1,
+    time_scale: Annotated[float, typer.Option(help="Multiplies every stage budget.")] = 0.1,
+    memory_mb: Annotated[int, typer.Option()] = 2048,
+    runs_dir: Annotated[Path, typer.Option()] = Path("runs"),
+) -> None:
+    """Check your container against the contract: one real episode in the sandbox."""
+    from rich.table import Table
+
+    from orchestrator._agentcheck import contract_checks
+    from orchestrator._report import print_result
+    from orchestrator._worker import EpisodeSpec, run_episode
+    from schemas import Limits
+
+    spec = EpisodeSpec(track=track, image=image, seed=seed, split="standard", runs_dir=runs_dir,
+                       limits=Limits(time_scale=time_scale, memory_mb=memory_mb))
+    with console.status(f"one {track} episode with {image} ({runtime})…"):
+        result = run_episode(spec, _runtime(runtime))
+    print_result(result, console)
+    table = Table(title="container contract", title_justify="left")
+    table.add_column("check")
+    table.add_column("")
+    table.add_column("detail")
+    checks = contract_checks(result)
+    for c in checks:
+        table.add_row(c.name, "[green]pass[/]" if c.ok else "[bold red]FAIL[/]", c.detail)
+    console.print(table)
+    raise typer.Exit(0 if all(c.ok for c in checks) else 1)
+
+
 @images_app.command("build")
 def images_build(force: Annotated[bool, typer.Option(help="Rebuild everything.")] = False) -> None:
     """Build eagc/base, eagc/agent-base and the example agents, with no registry."""
@@ -143,10 +177,14 @@ def cleanup(
 @app.command()
 def tracks() -> None:
     """List the installed tracks."""
-    from plugins import available_tracks, load_track
+    from plugins import PluginError, available_tracks, load_track
 
     for name in available_tracks():
-        plugin = load_track(name)
+        try:
+            plugin = load_track(name)
+        except PluginError as e:
+            console.print(f"[bold red]{name}[/]: cannot be loaded: {e}")
+            continue
         stages = ", ".join(f"{s.name} {s.budget_s:g}s" for s in plugin.stages())
         console.print(f"[bold]{name}[/]: {plugin.title}\n  stages: {stages}")
 

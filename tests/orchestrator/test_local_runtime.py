@@ -5,6 +5,7 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
+from orchestrator._agentcheck import contract_checks
 from orchestrator._local import LocalProcessRuntime
 from orchestrator._worker import EpisodeSpec, run_episode
 from schemas import EpisodeStatus, Limits
@@ -26,6 +27,8 @@ def test_sanity_episode_as_a_local_process() -> None:
     assert result.runtime == "local"
     assert result.score.total > 0.5
     assert {f.name for f in result.files if f.ok} == {"world_model.json", "episode_log.jsonl"}
+    failed = [c for c in contract_checks(result) if not c.ok]
+    assert failed == []
 
 
 def test_a_command_that_does_not_exist_never_starts() -> None:
@@ -35,6 +38,9 @@ def test_a_command_that_does_not_exist_never_starts() -> None:
     )
     assert result.status is EpisodeStatus.AGENT_NO_START
     assert result.score.total == 0.0
+    checks = {c.name: c for c in contract_checks(result)}
+    assert not checks["the container starts"].ok
+    assert "cannot start" in checks["the container starts"].detail
 
 
 def test_step_caps_end_stages_whatever_the_machine_speed() -> None:

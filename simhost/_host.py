@@ -130,6 +130,8 @@ class SimHost:
         # Zenoh's callbacks only enqueue; serve() handles requests and keeps the clock on one
         # thread, so no lock is needed and a reply is never raced by a stage ending.
         self._inbox: queue.SimpleQueue[tuple[float, bytes] | None] = queue.SimpleQueue()
+        self._after_lock = threading.Lock()
+        self._served = False  # serve() has returned
         self._phase = "hello"  # hello → reset → running → over
         self._seq = 0
         self._stage = -1
@@ -210,6 +212,15 @@ class SimHost:
                 continue
             if item is not None:
                 self._serve_one(*item)
+        with self._after_lock:
+            self._served = True
+        while True:  # requests that came in while the episode was ending
+            try:
+                item = self._inbox.get_nowait()
+            except queue.Empty:
+                break
+            if item is not None:
+                self._pub.put(self._over_reply())
         return self.outcome
 
     # ------------------------------------------------------------------ callbacks
@@ -222,7 +233,16 @@ class SimHost:
         self._inbox.put(None)  # wake serve()
 
     def _on_request(self, sample: zenoh.Sample) -> None:
-        self._inbox.put((time.monotonic(), sample.payload.to_bytes()))
+        with self._after_lock:
+            if not self._served:
+                self._inbox.put((time.monotonic(), sample.payload.to_bytes()))
+                return
+        self._pub.put(self._over_reply())  # serve() has returned: still one reply per request
+
+    def _over_reply(self) -> bytes:
+        return encode(ErrorReply(seq=self._seq, code="episode_over",
+                                 message=f"the episode is over ({self.outcome.end_reason})",
+                                 fatal=True))
 
     def _serve_one(self, received: float, buf: bytes) -> None:
         try:
@@ -294,10 +314,12 @@ class SimHost:
         if self._phase != "hello":
             return self._error("bad_order", "hello was already done")
         if msg.protocol != PROTOCOL_VERSION:
-            return self._error(
+            reply = self._error(
                 "malformed", f"protocol {msg.protocol!r} not served; this host speaks "
                 f"{PROTOCOL_VERSION}", fatal=True
             )
+            self._finish("protocol_violation", "stopped")
+            return reply
         self.outcome.agent_seen = True
         self.outcome.hello_at = self._now()
         self._event("hello", {"agent": msg.agent})

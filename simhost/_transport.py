@@ -86,4 +86,6 @@ def agent_config(endpoint: str) -> zenoh.Config:
     conf = _base_config("peer")
     conf.insert_json5("connect/endpoints", json.dumps([endpoint]))
     conf.insert_json5("listen/endpoints", "[]")
+    # Without this, opening the session sometimes waits 0.5 s for scouting that is off anyway.
+    conf.insert_json5("scouting/delay", "0")
     return conf

@@ -104,6 +104,8 @@ def _tensors(metas: Any, block: memoryview) -> dict[str, np.ndarray]:
     out: dict[str, np.ndarray] = {}
     for m in metas:
         if not isinstance(m, dict):
+            if not hasattr(m, "__dict__"):
+                raise WireError("malformed", f"tensor metadata {m!r} is not an object")
             m = m.__dict__
         name, shape, offset, nbytes = m["name"], tuple(m["shape"]), m["offset"], m["nbytes"]
         dtype = _DTYPES.get(m["dtype"])
@@ -116,8 +118,11 @@ def _tensors(metas: Any, block: memoryview) -> dict[str, np.ndarray]:
             raise WireError("malformed", f"tensor {name!r} runs past the end of the message")
         if name in out:
             raise WireError("malformed", f"tensor {name!r} appears twice")
-        arr = np.frombuffer(block, dtype=dtype, count=expected // dtype.itemsize, offset=offset)
-        out[name] = arr.reshape(shape)
+        try:  # e.g. shape (0, 2**70): no bytes, but no such array either
+            arr = np.frombuffer(block, dtype=dtype, count=expected // dtype.itemsize, offset=offset)
+            out[name] = arr.reshape(shape)
+        except (ValueError, OverflowError) as e:
+            raise WireError("malformed", f"tensor {name!r}: shape {list(shape)}: {e}") from None
     return out
 
 
@@ -144,7 +149,7 @@ def decode_observation(buf: bytes) -> tuple[dict[str, Any], dict[str, np.ndarray
     header, block = _split(buf, None)
     try:
         doc = json.loads(header)
-    except ValueError as e:
+    except (ValueError, RecursionError) as e:
         raise WireError("malformed", f"reply header is not JSON: {e}") from None
     if not isinstance(doc, dict) or doc.get("kind") != "observation":
         return None

@@ -1,0 +1,96 @@
+"""Shared fixtures. Markers (``docker``, ``slow``) are registered in pyproject.toml.
+
+``sim_host`` starts a real ``SimHost`` serving a real sanity episode (MuJoCo) on a unix
+socket, with ``serve()`` on a thread; ``host_episode`` is one such host with the defaults.
+"""
+
+from __future__ import annotations
+
+import secrets
+import threading
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import pytest
+
+# Plain asserts in the shipped conformance suite get pytest's detailed failure messages.
+pytest.register_assert_rewrite("plugins.conformance")
+
+
+@dataclass
+class HostHandle:
+    """A running sim host: where an agent connects, and how the episode ended."""
+
+    host: Any  # simhost.SimHost
+    episode: str
+    endpoint: str
+    stop: threading.Event
+    thread: threading.Thread
+    _outcome: list[Any] = field(default_factory=list)
+
+    def outcome(self, timeout: float = 10.0) -> Any:
+        """Waits for ``serve()`` to return; the episode's ``HostOutcome``."""
+        self.thread.join(timeout)
+        if self.thread.is_alive():
+            raise TimeoutError(f"the host still serves after {timeout} s")
+        if not self._outcome:
+            raise RuntimeError("serve() raised; see the thread's traceback above")
+        return self._outcome[0]
+
+
+@pytest.fixture
+def sim_host(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., HostHandle]]:
+    """Factory: ``sim_host(seed=1, split="standard", **HostConfig fields) -> HostHandle``.
+
+    Defaults keep the budgets out of the way (official 60 s stages, 30 s to start); pass
+    ``time_scale``, ``max_steps_per_stage``, ``max_protocol_errors``, … to change them.
+    """
+    from plugins import load_track
+    from simhost import HostConfig, SimHost
+    from simhost._transport import unix_endpoint
+
+    handles: list[tuple[HostHandle, Any]] = []
+
+    def start(*, seed: int = 1, split: str = "standard", **overrides: Any) -> HostHandle:
+        track = load_track("sanity")
+        episode = track.make_episode(track.make_scenario(seed=seed, split=split, params={}))
+        # A short folder: unix socket paths are limited to 108 bytes.
+        sock = tmp_path_factory.mktemp("ep") / "sock" / "zenoh.sock"
+        sock.parent.mkdir()
+        endpoint = unix_endpoint(str(sock))
+        config = {
+            "episode": secrets.token_hex(8),
+            "track": track.name,
+            "endpoints": (endpoint,),
+            "socket_path": sock,
+            "startup_s": 30.0,
+            "max_request_bytes": 64 * 1024,
+            "max_protocol_errors": 50,
+            **overrides,
+        }
+        host = SimHost(episode, track.stages(), HostConfig(**config))
+        host.open()
+        stop = threading.Event()
+        outcome: list[Any] = []
+        thread = threading.Thread(
+            target=lambda: outcome.append(host.serve(stop, poll_s=0.02)), daemon=True
+        )
+        handle = HostHandle(host, config["episode"], endpoint, stop, thread, outcome)
+        handles.append((handle, episode))
+        thread.start()
+        return handle
+
+    yield start
+
+    for handle, episode in handles:
+        handle.stop.set()
+        handle.thread.join(10)
+        handle.host.close()
+        episode.close()
+
+
+@pytest.fixture
+def host_episode(sim_host: Callable[..., HostHandle]) -> HostHandle:
+    """A sanity episode served with the default settings, waiting for its agent."""
+    return sim_host()

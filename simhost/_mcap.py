@@ -3,7 +3,8 @@
 Channels (JSON unless said otherwise):
 
 - ``/eagc/scenario``   the hidden scenario and episode metadata (once)
-- ``/eagc/request``    every accepted request: kind, seq, action
+- ``/eagc/request``    every request the episode applied, in order: kind, stage, and the
+                       checked action / answers / end-of-stage payload (replay input)
 - ``/eagc/reply``      every reply header (observation JSON, stage, messages)
 - ``/eagc/event``      stages, exceptions, protocol errors, agent lifecycle
 - ``/eagc/state_hash`` a hash of the simulator state after every step
@@ -103,11 +104,8 @@ class McapRecorder(EpisodeRecorder):
         self._write(topic, t, data, "raw")
 
     # EpisodeRecorder
-    def request(self, t: float, kind: str, msg: Any, tensors: Mapping[str, np.ndarray]) -> None:
-        body = msg.model_dump(mode="json", exclude={"tensors"})
-        for name, arr in tensors.items():
-            body.setdefault("action", {})[name] = arr if arr.size <= 64 else f"<{arr.shape}>"
-        self.write_json("/eagc/request", t, body)
+    def request(self, t: float, kind: str, stage: str | None, data: Mapping[str, Any]) -> None:
+        self.write_json("/eagc/request", t, {"kind": kind, "stage": stage, **data})
 
     def reply(self, t: float, reply: Any, obs: Observation | None) -> None:
         if not isinstance(reply, dict):

@@ -1,0 +1,282 @@
+"""Ray fan-out: one task per episode, a progress board, and per-node label cleanup.
+
+Each episode is one Ray task asking for ``limits.cpus`` CPUs, one GPU per granted device
+and one ``eagc_slot`` (container slots a node offers: ``ray start --resources
+'{"eagc_slot": 4}'``; the embedded Ray of a local campaign gets ``--workers`` of them).
+Ray's own retries are off (``max_retries=0``): the driver retries infrastructure failures
+itself, so that every retry is recorded and counted against ``spec.retries``.
+
+The task creates its ``DockerRuntime`` on the node it runs on (the image is loaded there
+from the submission's ``docker save`` archive if the node lacks it, then checked against
+the pinned image ID), calls ``run_episode`` and returns the result as JSON with the node
+it ran on. Before it starts it tells the driver's ``ProgressBoard`` actor, so the driver
+knows what is running, where and in which process.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import logging
+import os
+import socket
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import ray
+
+from schemas import CampaignSpec, Limits
+
+log = logging.getLogger("eagc.fanout")
+
+SLOT = "eagc_slot"
+
+
+@dataclass(frozen=True)
+class EpisodeJob:
+    """Everything a task needs. Holds the hidden seed: it goes to the worker, never further."""
+
+    campaign: str
+    submission: str
+    split: str
+    index: int
+    retry: int
+    episode: str
+    track: str
+    image: str
+    digest: str | None
+    seed: int
+    params: Mapping[str, Any]
+    limits: Limits
+    runs_dir: str
+    runtime: str = "docker"
+    archive: list[Any] = field(default_factory=list)  # [ObjectRef of the archive bytes]
+
+    @property
+    def labels(self) -> dict[str, str]:
+        return {"campaign": self.campaign, "submission": self.submission,
+                "retry": str(self.retry)}
+
+
+@dataclass(frozen=True)
+class TaskReport:
+    """What a task returns: the result (JSON) or why there is none, and where it ran."""
+
+    node: str
+    host: str
+    pid: int
+    result_json: str | None = None
+    error: str | None = None
+
+
+@ray.remote(num_cpus=0)
+class ProgressBoard:
+    """Workers report here when an episode starts; the driver drains the reports."""
+
+    def __init__(self) -> None:
+        self._events: list[dict[str, Any]] = []
+
+    def started(self, event: dict[str, Any]) -> None:
+        self._events.append(event)
+
+    def drain(self) -> list[dict[str, Any]]:
+        events, self._events = self._events, []
+        return events
+
+
+def _node() -> str:
+    return ray.get_runtime_context().get_node_id()
+
+
+def _ensure_image(client: Any, job: EpisodeJob) -> str:
+    """The image to run on this node: the pinned ID, loaded from the archive if missing."""
+    import docker
+
+    from orchestrator._runtime import InfraError
+
+    if job.digest is None:
+        return job.image
+
+    def present() -> bool:
+        try:
+            client.images.get(job.digest)
+            return True
+        except docker.errors.ImageNotFound:
+            return False
+
+    if present():
+        return job.digest
+    if not job.archive:
+        raise InfraError(f"image {job.digest[:19]} ({job.image}) is not loaded on node "
+                         f"{socket.gethostname()} and the submission has no archive")
+    lock = Path(f"/tmp/eagc-image-{job.digest.split(':')[-1][:16]}.lock")
+    with lock.open("w") as f:  # one load per node, however many tasks wait for it
+        fcntl.flock(f, fcntl.LOCK_EX)
+        if not present():
+            client.images.load(ray.get(job.archive[0]))
+    if not present():
+        raise InfraError(f"the archive of {job.image} does not hold the pinned image "
+                         f"{job.digest[:19]}")
+    return job.digest
+
+
+def _runtime(job: EpisodeJob) -> Any:
+    if job.runtime == "local":
+        from orchestrator._local import LocalProcessRuntime
+
+        return LocalProcessRuntime(quiet=True)
+    from orchestrator._docker import DockerRuntime
+
+    return DockerRuntime()
+
+
+@ray.remote(max_retries=0)
+def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
+    """Runs one episode on whatever node Ray chose; never raises for agent faults."""
+    from orchestrator._worker import EpisodeSpec, run_episode
+
+    node, host, pid = _node(), socket.gethostname(), os.getpid()
+    if board is not None:
+        board.started.remote({"submission": job.submission, "split": job.split,
+                              "index": job.index, "retry": job.retry, "episode": job.episode,
+                              "node": node, "host": host, "pid": pid, "at": time.time()})
+    try:
+        runtime = _runtime(job)
+        image = job.image if job.runtime == "local" else _ensure_image(runtime.client, job)
+        limits = job.limits
+        gpu_ids = ray.get_gpu_ids()
+        if limits.gpus and gpu_ids:  # the devices Ray assigned to this task
+            limits = limits.model_copy(update={"gpus": tuple(str(g) for g in gpu_ids)})
+        spec = EpisodeSpec(track=job.track, image=image, seed=job.seed, split=job.split,
+                           params=dict(job.params), limits=limits, runs_dir=Path(job.runs_dir),
+                           labels=job.labels, episode=job.episode)
+        result = run_episode(spec, runtime)
+    except Exception as e:  # noqa: BLE001 - an infrastructure failure, retried by the driver
+        return TaskReport(node, host, pid, error=f"{type(e).__name__}: {e}")
+    return TaskReport(node, host, pid, result_json=result.model_dump_json())
+
+
+def submit(job: EpisodeJob, board: Any) -> Any:
+    """Schedules one episode task with its resources; returns its ObjectRef."""
+    return episode_task.options(
+        num_cpus=job.limits.cpus,
+        num_gpus=len(job.limits.gpus),
+        resources={SLOT: 1},
+        name=f"eagc:{job.campaign}:{job.submission}/{job.split}/{job.index}#{job.retry}",
+    ).remote(job, board)
+
+
+def _unmount_under(folder: str) -> list[str]:
+    """Unmounts the /output tmpfs left under ``folder`` by workers that died."""
+    import subprocess
+
+    root = os.path.realpath(folder) + os.sep
+    done = []
+    try:
+        mounts = Path("/proc/self/mounts").read_text().splitlines()
+    except OSError:
+        return done
+    for line in mounts:
+        parts = line.split()
+        if len(parts) > 1 and parts[0] == "eagc-output" and parts[1].startswith(root):
+            subprocess.run(["umount", "-l", parts[1]], capture_output=True)
+            done.append(parts[1])
+    return done
+
+
+@ray.remote(num_cpus=0, max_retries=0)
+def _cleanup_task(labels: dict[str, str], runs_dir: str | None) -> list[str]:
+    return cleanup_here(labels, runs_dir)
+
+
+def cleanup_here(labels: Mapping[str, str], runs_dir: str | None) -> list[str]:
+    """Removes this node's containers with ``labels`` (and stale output mounts)."""
+    from orchestrator._docker import DockerRuntime
+
+    removed: list[str] = []
+    for _ in range(2):  # two nodes on one engine may race for the same container
+        try:
+            removed += DockerRuntime().cleanup(dict(labels))
+            break
+        except Exception:  # noqa: BLE001 - the other node removed it first
+            time.sleep(0.2)
+    if runs_dir is not None:
+        _unmount_under(runs_dir)
+    return removed
+
+
+def cleanup_nodes(labels: Mapping[str, str], runs_dir: str | None,
+                  timeout_s: float = 60.0) -> list[str]:
+    """Runs ``cleanup_here`` on every alive node of the cluster, one after the other."""
+    from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
+    removed: list[str] = []
+    for node in ray.nodes():
+        if not node.get("Alive"):
+            continue
+        strategy = NodeAffinitySchedulingStrategy(node_id=node["NodeID"], soft=False)
+        ref = _cleanup_task.options(scheduling_strategy=strategy).remote(dict(labels), runs_dir)
+        try:
+            removed += ray.get(ref, timeout=timeout_s)
+        except Exception:  # noqa: BLE001 - a node that cannot answer is reaped by `eagc cleanup`
+            ray.cancel(ref, force=True)
+    return removed
+# ---------------------------------------------------------------------------- images
+@dataclass(frozen=True)
+class PinnedImage:
+    team: str
+    run: str  # what the runtime starts: the image ID when pinned, else the command
+    digest: str | None
+    archive: Path | None
+
+
+def pin_images(spec: CampaignSpec, client: Any | None = None) -> dict[str, PinnedImage]:
+    """Loads archives, checks pinned IDs and pins unpinned local images to their current ID."""
+    from orchestrator._campaign import CampaignError
+
+    if spec.runtime == "local":
+        return {s.team: PinnedImage(s.team, s.image, None, None) for s in spec.submissions}
+    import docker
+
+    from orchestrator._docker import docker_client
+
+    client = client or docker_client()
+    out = {}
+    for sub in spec.submissions:
+        def get(ref: str) -> Any:
+            try:
+                return client.images.get(ref)
+            except docker.errors.ImageNotFound:
+                return None
+
+        if sub.archive is not None and (sub.digest is None or get(sub.digest) is None):
+            with sub.archive.open("rb") as f:
+                loaded = client.images.load(f.read())
+            log.info("loaded %s from %s", [i.id for i in loaded], sub.archive)
+        if sub.digest is not None:
+            if get(sub.digest) is None:
+                raise CampaignError(
+                    f"submission {sub.team!r}: the pinned image {sub.digest} is not loaded"
+                    + (" and its archive does not hold it" if sub.archive else
+                       " (load its `docker save` archive, or name it in `archive:`)"))
+            tagged = get(sub.image)
+            if tagged is not None and tagged.id != sub.digest:
+                log.warning("submission %s: %s now points to %s; running the pinned %s",
+                            sub.team, sub.image, tagged.id[:19], sub.digest[:19])
+            out[sub.team] = PinnedImage(sub.team, sub.digest, sub.digest, sub.archive)
+            continue
+        if spec.phase != "local":
+            raise CampaignError(
+                f"submission {sub.team!r}: a {spec.phase} campaign runs pinned images only: "
+                f"add `digest: <image ID>` (docker image inspect --format '{{{{.Id}}}}' "
+                f"{sub.image})")
+        image = get(sub.image)
+        if image is None:
+            raise CampaignError(f"submission {sub.team!r}: image {sub.image!r} is not loaded "
+                                "here (build it, `eagc images build`, or `docker load` it)")
+        out[sub.team] = PinnedImage(sub.team, str(image.id), str(image.id), None)
+    return out
+
+

@@ -78,26 +78,64 @@ class WorldModel(_File):
 
 
 class NamedItem(_File):
+    """A named value, e.g. a constraint: ``{"name": "clearance", "value": 0.004}``."""
+
     name: str
     value: Any = None
     description: str = ""
 
 
+class StateVariable(_File):
+    """A state variable the task depends on, e.g. ``peg_pose`` of part ``peg``."""
+
+    name: str
+    type: Literal["pose", "position", "angle", "fraction", "length", "bool"] | None = None
+    part: str | None = Field(default=None, description="The part it describes, if any.")
+    value: Any = Field(default=None, description="Its value when the file was written.")
+    description: str = ""
+
+
 class Precondition(_File):
+    """What must hold to enter ``stage``: predicates such as ``peg_grasped``."""
+
     stage: str
     requires: list[str] = Field(default_factory=list)
 
 
+class SuccessCriterion(_File):
+    """One condition of success; all of them must hold at once.
+
+    ``value`` is a number or bool, or ``[low, high]`` with ``op == "within"``.
+    """
+
+    variable: str
+    op: Literal[">=", "<=", "==", "within"]
+    value: Any = None
+    description: str = ""
+
+
 class TaskModel(_File):
-    """``task_model.json``."""
+    """``task_model.json`` (Track 2): the task inferred from the demonstration.
+
+    Names follow the bench's vocabulary (``simhost.track2.task_truth``): e.g. insertion has
+    stages ``reach grasp transport align insert release``, variables ``peg_pose``,
+    constraints ``clearance``, preconditions ``{"stage": "insert", "requires":
+    ["peg_grasped", "peg_aligned"]}`` and success ``insertion_depth >= 0.02``. It is compared
+    with the truth of the hidden instance being executed.
+    """
 
     version: Literal["eagc-task-model/v1"] = TASK_MODEL_VERSION
-    family: str | None = None
-    stages: list[str] = Field(default_factory=list)
-    variables: list[NamedItem] = Field(default_factory=list)
+    step: int | None = Field(default=None, description="Agent step at which it was written.")
+    family: str | None = Field(
+        default=None,
+        description="insertion, rotation, assembly, opening or tool_use; a wrong family "
+        "makes the whole model wrong.",
+    )
+    stages: list[str] = Field(default_factory=list, description="Ordered key stages.")
+    variables: list[StateVariable] = Field(default_factory=list)
     constraints: list[NamedItem] = Field(default_factory=list)
     preconditions: list[Precondition] = Field(default_factory=list)
-    success_criteria: list[NamedItem] = Field(default_factory=list)
+    success_criteria: list[SuccessCriterion] = Field(default_factory=list)
 
 
 LogEvent = Literal[

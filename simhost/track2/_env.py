@@ -139,7 +139,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 np.array([*WORKSPACE_HI, WIDTH_MAX + 0.01, 1.0, 1.0], dtype=np.float32),
                 dtype=np.float32,
             ),
-            "parts": spaces.Box(-2.0, 2.0, (n, len(PART_FIELDS)), np.float32),
+            "parts": spaces.Box(-4.0, 4.0, (n, len(PART_FIELDS)), np.float32),
             "force": spaces.Box(
                 np.array([0, 0, 0, -500, -500, -500], dtype=np.float32),
                 np.full(6, 500.0, dtype=np.float32),
@@ -366,7 +366,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         space = self.observation_space.spaces
         obs = {
             "proprio": np.clip(prop, space["proprio"].low, space["proprio"].high),
-            "parts": np.clip(self.task.parts(), -2.0, 2.0),
+            "parts": np.clip(self.task.parts(), -4.0, 4.0),
             "force": np.clip(s.force, space["force"].low, space["force"].high),
             "goal": np.clip(self.task.goal(), -10.0, 10.0),
         }

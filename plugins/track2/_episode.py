@@ -1,0 +1,274 @@
+"""``Track2Episode``: one hidden bench instance, three stages, up to three attempts.
+
+Stages (paper Table V): ``demonstration`` (the host says where the packet is), ``parsing``
+(nothing moves: a step is refused with a reason and counts as an invalid action), then
+``execution``. Execution runs attempts on the hidden instance:
+
+- an attempt ends on success, when the agent sends ``end_attempt: 1`` (the request's
+  ``motion``, if any, is not applied), or after ``attempt_steps`` steps;
+- the reply to the step that ended a failed attempt carries a ``HostMessage(type=
+  "attempt_result")`` and the first observation of the next attempt: the instance is reset;
+- the episode ends at the first success (``end_reason="success"``) or when the last attempt
+  ends (``"attempts_used"``). Attempts share the execution stage's budget; if it runs out,
+  the attempt under way is the last.
+
+The observation's JSON part tells the agent ``attempt`` (1-based), ``attempts_left`` (after
+this one) and ``attempt_steps_left``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from plugins._base import Scenario
+from schemas._protocol import ActionResult, FieldSpec, HostMessage
+from simhost._episode import Observation, StageEnd, StepOutcome, TrackEpisode
+
+DEMONSTRATION, PARSING, EXECUTION = "demonstration", "parsing", "execution"
+DEMO_FOLDER = "demo"
+CONTAINER_DEMO = "/input/demo"
+EXCESS_FORCE = 25.0  # N: above a firm grasp (each finger squeezes with at most 20 N)
+JERK = 1.2  # a change of a motion command by more than this in one step is jerky
+OBS_TEXT = {
+    "proprio": "TCP x, y, z (m), yaw (rad), finger opening (m), left/right finger contact",
+    "parts": "rows per task part: present, x, y, z, qw, qx, qy, qz, joint",
+    "force": "normal contact force on left finger, right finger, palm; net force x, y, z (N)",
+    "goal": "[stated, g1, g2, g3]: the task's public goal parameters (zeros if none)",
+}
+
+
+@dataclass
+class Attempt:
+    """One attempt's record (organizer-only; goes to the outcome)."""
+
+    index: int
+    steps: int = 0
+    success: bool = False
+    peak_progress: float = 0.0
+    final_progress: float = 0.0
+    ended_by: str = ""
+    wall_s: float = 0.0
+    sim_s: float = 0.0
+
+
+class Track2Episode(TrackEpisode):
+    """The live episode around a ``BenchEnv`` of the hidden instance."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        from simhost.track2 import BenchEnv, InstanceParams
+
+        self.scenario = scenario
+        p = scenario.params
+        self.params = InstanceParams.model_validate(p["instance"])
+        self.cap = int(p["attempt_steps"])
+        self.max_attempts = int(p["max_attempts"])
+        self.env = BenchEnv(self.params, max_steps=self.cap)
+        spaces = self.env.observation_space.spaces  # type: ignore[union-attr]
+        self.observation_spec = tuple(
+            FieldSpec(name=k, dtype="float32", shape=tuple(spaces[k].shape),
+                      low=float(np.min(spaces[k].low)), high=float(np.max(spaces[k].high)),
+                      tensor=True, description=OBS_TEXT[k])
+            for k in ("proprio", "parts", "force", "goal")
+        ) + (
+            FieldSpec(name="attempt", dtype="int32", low=0, high=self.max_attempts,
+                      description="the attempt under way (1-based; 0 before execution)"),
+            FieldSpec(name="attempts_left", dtype="int32", low=0, high=self.max_attempts,
+                      description="attempts left after this one"),
+            FieldSpec(name="attempt_steps_left", dtype="int32", low=0, high=self.cap,
+                      description="steps left in this attempt"),
+        )
+        self.action_spec = (
+            FieldSpec(name="motion", dtype="float32", shape=(5,), low=-1.0, high=1.0,
+                      description="[dx, dy, dz, dyaw, grip]: move the hand's target by up to "
+                      "0.015 m / 0.15 rad per step; grip -1 closed .. +1 open (0.09 m)"),
+            FieldSpec(name="end_attempt", dtype="int32", shape=(), low=0, high=1,
+                      description="1 ends the current attempt (its motion is not applied); "
+                      "the instance is reset for the next one"),
+        )
+        self._obs: dict[str, np.ndarray] = {}
+        self._attempts: list[Attempt] = []
+        self._current: Attempt | None = None
+        self._attempt_t0 = 0.0
+        self._stage_t0: dict[str, float] = {}
+        self._durations: dict[str, float] = {}
+        self._prev_motion: np.ndarray | None = None
+        self._stats = {"steps": 0, "excess_force_steps": 0, "drops": 0, "limit_steps": 0,
+                       "jerk_steps": 0, "env_invalid": 0, "sim_warnings": 0, "refused": 0}
+        self._max_force = 0.0
+
+    # ---------------------------------------------------------------- TrackEpisode
+    def reset(self) -> Observation:
+        self._obs, _ = self.env.reset(seed=self.scenario.seed)
+        return self.observe()
+
+    def observe(self) -> Observation:
+        a = self._current or (self._attempts[-1] if self._attempts else None)
+        data = {
+            "attempt": a.index if a else 0,
+            "attempts_left": self.max_attempts - (a.index if a else 0),
+            "attempt_steps_left": (self.cap - self._current.steps if self._current
+                                   else 0 if self._attempts else self.cap),
+        }
+        return Observation(tensors=self._obs, data=data)
+
+    def on_stage_start(self, stage: str) -> tuple[HostMessage, ...]:
+        self._stage_t0[stage] = time.monotonic()
+        if stage == DEMONSTRATION:
+            return (
+                HostMessage(type="demonstration", data={
+                    "path": CONTAINER_DEMO, "folder": DEMO_FOLDER, "format": "eagc-demo/v1",
+                    "hint": "the packet is $EAGC_INPUT/demo: use os.environ['EAGC_INPUT'] "
+                            "(it is /input in a container)",
+                }),
+                HostMessage(type="instruction", data={
+                    "text": "receive the demonstration; nothing moves in this stage; "
+                            "end_stage when ready"}),
+            )
+        if stage == PARSING:
+            return (HostMessage(type="instruction", data={
+                "text": "parse the demonstration and adapt; nothing moves in this stage; write "
+                        "/output/task_model.json and end_stage to start execution"}),)
+        if stage == EXECUTION:
+            self._start_attempt()
+            return (HostMessage(type="instruction", data={
+                "text": f"execute the task on this instance: up to {self.max_attempts} "
+                        f"attempts of at most {self.cap} steps; send end_attempt=1 to give up "
+                        "an attempt (the instance is reset)",
+                "max_attempts": self.max_attempts, "attempt_steps": self.cap}),)
+        return ()
+
+    def on_stage_end(
+        self, stage: str, *, ended_by: StageEnd, payload: Mapping[str, Any]
+    ) -> tuple[Mapping[str, Any], ...]:
+        self._durations[stage] = time.monotonic() - self._stage_t0.get(stage, time.monotonic())
+        if stage == EXECUTION and self._current is not None:
+            att = self._close_attempt(f"stage_{ended_by}")
+            return ({"event": "attempt_end", **asdict(att)},)
+        return ()
+
+    def step(self, stage: str, action: Mapping[str, Any]) -> StepOutcome:
+        if stage != EXECUTION or self._current is None:
+            self._stats["refused"] += 1
+            return self._refuse(f"nothing moves during {stage!r}: end the stage (end_stage) "
+                                "to reach execution")
+        if int(action.get("end_attempt", 0) or 0) == 1:
+            return self._end_attempt("agent", applied=False)
+        motion = action.get("motion")
+        if motion is None:
+            self._stats["refused"] += 1
+            return self._refuse("give motion [dx, dy, dz, dyaw, grip] or end_attempt=1")
+        att = self._current
+        t0 = time.perf_counter()
+        self._obs, _, _, _, info = self.env.step(motion)
+        att.sim_s += time.perf_counter() - t0
+        att.steps += 1
+        self._account(np.asarray(motion, dtype=float), info)
+        att.peak_progress = max(att.peak_progress, float(info["progress"]))
+        att.final_progress = float(info["progress"])
+        if info["success"]:
+            att.success = True
+            att = self._close_attempt("success")
+            return StepOutcome(
+                observation=self.observe(),
+                action=ActionResult(applied=True, ok=True),
+                messages=(self._result_message(att),),
+                episode_over=True,
+                end_reason="success",
+                events=({"event": "attempt_end", **asdict(att)},),
+            )
+        if att.steps >= self.cap:
+            return self._end_attempt("step_cap", applied=True)
+        return StepOutcome(observation=self.observe(), action=ActionResult(applied=True, ok=True))
+
+    def sim_state(self) -> bytes:
+        return self.env.get_state()
+
+    def state_hash(self) -> str:
+        return self.env.state_hash()
+
+    def outcome(self) -> dict[str, Any]:
+        attempts = [asdict(a) for a in self._attempts]
+        if self._current is not None:  # still under way (the host never ended the stage)
+            attempts.append({**asdict(self._current), "ended_by": "unfinished"})
+        win = next((a["index"] for a in attempts if a["success"]), None)
+        stepped = [a for a in attempts if a["steps"] > 0]
+        exec_s = self._durations.get(EXECUTION, 0.0)
+        sim_s = sum(a["sim_s"] for a in attempts)
+        adapt = (self._durations.get(DEMONSTRATION, 0.0) + self._durations.get(PARSING, 0.0)
+                 + max(0.0, exec_s - sim_s))
+        return {
+            "family": self.params.family,
+            "distance": self.scenario.params.get("distance"),
+            "attempts": attempts,
+            "max_attempts": self.max_attempts,
+            "attempt_steps": self.cap,
+            "success": win is not None,
+            "success_attempt": win,
+            "best_progress": max((a["peak_progress"] for a in stepped), default=0.0),
+            # Rounded: a score must not change with microseconds of timing noise.
+            "stage_durations_s": {k: round(v, 2) for k, v in self._durations.items()},
+            "adapt_time_s": round(adapt, 2),
+            "max_contact_force": self._max_force,
+            **self._stats,
+        }
+
+    def close(self) -> None:
+        self.env.close()
+
+    # ---------------------------------------------------------------- internals
+    def _refuse(self, reason: str) -> StepOutcome:
+        return StepOutcome(observation=self.observe(),
+                           action=ActionResult(applied=False, ok=False, reason=reason))
+
+    def _account(self, motion: np.ndarray, info: Mapping[str, Any]) -> None:
+        s = self._stats
+        s["steps"] += 1
+        force = float(info["contact_force"])
+        self._max_force = max(self._max_force, force)
+        s["excess_force_steps"] += force > EXCESS_FORCE
+        s["drops"] += sum(1 for e in info["events"] if e["event"] == "dropped")
+        s["limit_steps"] += bool(info["joint_limit"])
+        s["env_invalid"] += bool(info["invalid_action"])
+        s["sim_warnings"] += len(info["sim_warnings"])
+        prev = self._prev_motion
+        if prev is not None and float(np.max(np.abs(motion[:4] - prev[:4]))) > JERK:
+            s["jerk_steps"] += 1
+        self._prev_motion = motion
+
+    def _start_attempt(self) -> None:
+        self._current = Attempt(index=len(self._attempts) + 1)
+        self._attempt_t0 = time.monotonic()
+        self._prev_motion = None
+
+    def _close_attempt(self, ended_by: str) -> Attempt:
+        att = self._current
+        assert att is not None
+        att.ended_by = ended_by
+        att.wall_s = time.monotonic() - self._attempt_t0
+        self._attempts.append(att)
+        self._current = None
+        return att
+
+    def _result_message(self, att: Attempt) -> HostMessage:
+        return HostMessage(type="attempt_result", data={
+            "attempt": att.index, "success": att.success, "ended_by": att.ended_by,
+            "steps": att.steps, "attempts_left": self.max_attempts - att.index,
+        })
+
+    def _end_attempt(self, why: str, *, applied: bool) -> StepOutcome:
+        att = self._close_attempt(why)
+        events = ({"event": "attempt_end", **asdict(att)},)
+        message = self._result_message(att)
+        result = ActionResult(applied=applied, ok=True, reason=f"attempt {att.index} ended ({why})")
+        if att.index >= self.max_attempts:
+            return StepOutcome(observation=self.observe(), action=result, messages=(message,),
+                               episode_over=True, end_reason="attempts_used", events=events)
+        self._obs, _ = self.env.reset(seed=self.scenario.seed)
+        self._start_attempt()
+        return StepOutcome(observation=self.observe(), action=result, messages=(message,),
+                           events=events)

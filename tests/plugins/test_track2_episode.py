@@ -1,0 +1,178 @@
+"""Track 2 scenarios, the demonstration packet, stages and the attempt rules (real MuJoCo)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from plugins import PluginError, Scenario, load_track
+from plugins.track2 import Track2Episode
+from simhost.track2 import (
+    FAMILIES,
+    InstanceParams,
+    ScriptedExpert,
+    instance_distance,
+    read_demo_packet,
+)
+
+TRACK = load_track("track2")
+HOLD = np.array([0.0, 0.0, 0.0, 0.0, 1.0], dtype=np.float32)
+
+
+def make(seed: int = 0, split: str = "standard", **params: Any) -> Scenario:
+    return TRACK.make_scenario(seed=seed, split=split, params={"demo_frames": False, **params})
+
+
+def start(scenario: Scenario) -> Track2Episode:
+    """An episode brought to the start of execution the way the host does it."""
+    ep = TRACK.make_episode(scenario)
+    assert isinstance(ep, Track2Episode)
+    ep.reset()
+    for stage in ("demonstration", "parsing"):
+        ep.on_stage_start(stage)
+        ep.on_stage_end(stage, ended_by="agent", payload={})
+    ep.on_stage_start("execution")
+    return ep
+
+
+def test_stages_follow_table_v() -> None:
+    stages = TRACK.stages()
+    assert [(s.name, s.budget_s / 60, s.allows_motion) for s in stages] == [
+        ("demonstration", 5, False), ("parsing", 20, False), ("execution", 30, True)]
+
+
+def test_families_mix_by_seed_and_scenarios_are_deterministic() -> None:
+    got = [make(seed).params["family"] for seed in range(5)]
+    assert got == list(FAMILIES)
+    a, b = make(7), make(7)
+    assert a.params == b.params
+    p = a.params
+    src, inst = (InstanceParams.model_validate(p[k]) for k in ("source", "instance"))
+    assert p["distance"] == pytest.approx(instance_distance(src, inst), abs=1e-6)
+    assert src.family == inst.family == p["family"] and src != inst
+    assert make(3, family="rotation").params["family"] == "rotation"
+
+
+def test_challenge_instances_lie_farther_from_the_demonstration() -> None:
+    seeds = range(10)
+    std = np.mean([make(s, "standard").params["distance"] for s in seeds])
+    ch = np.mean([make(s, "challenge").params["distance"] for s in seeds])
+    assert ch > std + 0.05
+
+
+def test_bad_scenario_parameters_say_what_is_wrong() -> None:
+    with pytest.raises(PluginError, match="Did you mean 'difficulty'"):
+        TRACK.make_scenario(seed=1, split="standard", params={"dificulty": 0.3})
+    with pytest.raises(PluginError, match=r"difficulty must be a number in \[0, 1\]"):
+        TRACK.make_scenario(seed=1, split="standard", params={"difficulty": 2})
+    with pytest.raises(PluginError, match="Did you mean 'tool_use'"):
+        TRACK.make_scenario(seed=1, split="standard", params={"family": "tooluse"})
+
+
+def test_write_inputs_writes_the_source_demonstration(tmp_path: Path) -> None:
+    s = make(4)
+    TRACK.write_inputs(s, tmp_path)
+    packet = read_demo_packet(tmp_path / "demo")
+    man = packet.manifest
+    src = InstanceParams.model_validate(s.params["source"])
+    assert man.success and man.family == s.params["family"]
+    assert man.source == src.public() and "friction" not in man.source
+    assert s.params["instance"] != s.params["source"]
+
+
+def test_nothing_moves_before_execution() -> None:
+    ep = TRACK.make_episode(make(0))
+    try:
+        ep.reset()
+        before = ep.state_hash()
+        for stage in ("demonstration", "parsing"):
+            messages = ep.on_stage_start(stage)
+            if stage == "demonstration":
+                demo = [m for m in messages if m.type == "demonstration"]
+                assert demo and demo[0].data["path"] == "/input/demo"
+                assert "EAGC_INPUT" in demo[0].data["hint"]
+            out = ep.step(stage, {"motion": np.ones(5, np.float32)})
+            assert out.action is not None and not out.action.applied and not out.action.ok
+            assert "nothing moves" in out.action.reason
+            ep.on_stage_end(stage, ended_by="agent", payload={})
+        assert ep.state_hash() == before
+        assert ep.outcome()["refused"] == 2
+    finally:
+        ep.close()
+
+
+def test_attempts_reset_the_instance_and_report_their_outcome() -> None:
+    ep = start(make(0))
+    try:
+        initial = ep.state_hash()
+        for _ in range(5):
+            out = ep.step("execution", {"motion": np.array([1, 0, -1, 0.5, -1], np.float32)})
+        assert ep.state_hash() != initial and out.observation.data["attempt_steps_left"] == 295
+        out = ep.step("execution", {"end_attempt": 1, "motion": HOLD})
+        assert out.action is not None and out.action.ok and not out.action.applied
+        (msg,) = [m for m in out.messages if m.type == "attempt_result"]
+        assert msg.data == {"attempt": 1, "success": False, "ended_by": "agent", "steps": 5,
+                            "attempts_left": 2}
+        assert out.observation.data == {"attempt": 2, "attempts_left": 1,
+                                        "attempt_steps_left": 300}
+        assert ep.state_hash() == initial, "the instance is reset between attempts"
+        assert not out.episode_over
+        out = ep.step("execution", {"end_attempt": 1})
+        assert not out.episode_over and out.observation.data["attempt"] == 3
+        out = ep.step("execution", {})
+        assert out.action is not None and not out.action.ok and "motion" in out.action.reason
+        out = ep.step("execution", {"end_attempt": 1})
+        assert out.episode_over and out.end_reason == "attempts_used"
+        o = ep.outcome()
+        assert [a["ended_by"] for a in o["attempts"]] == ["agent"] * 3
+        assert [a["steps"] for a in o["attempts"]] == [5, 0, 0]
+        assert not o["success"] and o["success_attempt"] is None and o["steps"] == 5
+    finally:
+        ep.close()
+
+
+def test_step_cap_ends_an_attempt_and_success_ends_the_episode() -> None:
+    ep = start(make(1, attempt_steps=6))
+    try:
+        outs = [ep.step("execution", {"motion": HOLD}) for _ in range(6)]
+        assert not any(o.messages for o in outs[:5])
+        out = outs[-1]
+        assert out.action is not None and out.action.applied
+        assert out.messages[0].data == {"attempt": 1, "success": False, "ended_by": "step_cap",
+                                        "steps": 6, "attempts_left": 2}
+        assert out.observation.data["attempt"] == 2
+    finally:
+        ep.close()
+
+    ep = start(make(1))  # a rotation: the expert solves it on attempt 2
+    try:
+        ep.step("execution", {"end_attempt": 1})
+        expert = ScriptedExpert(ep.env)
+        for _ in range(300):
+            out = ep.step("execution", {"motion": expert()})
+            if out.episode_over:
+                break
+        assert out.episode_over and out.end_reason == "success"
+        assert out.messages[0].data["success"] is True
+        o = ep.outcome()
+        assert o["success_attempt"] == 2 and o["best_progress"] == 1.0
+        assert [a["ended_by"] for a in o["attempts"]] == ["agent", "success"]
+        assert o["drops"] == 0 and o["excess_force_steps"] == 0
+        events = ep.on_stage_end("execution", ended_by="episode_over", payload={})
+        assert events == ()
+    finally:
+        ep.close()
+
+
+def test_a_stage_budget_ends_the_attempt_under_way() -> None:
+    ep = start(make(2))
+    try:
+        ep.step("execution", {"motion": HOLD})
+        (event,) = ep.on_stage_end("execution", ended_by="budget", payload={})
+        assert event["event"] == "attempt_end" and event["ended_by"] == "stage_budget"
+        assert ep.outcome()["attempts"][0]["steps"] == 1
+    finally:
+        ep.close()

@@ -1,0 +1,210 @@
+"""Track 2's score (eq. 3) on hand-built cases: perfect, empty, wrong family, attempts, …"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import pytest
+
+from plugins import Scenario, ScoringInput, load_track
+from plugins.track2 import WEIGHTS, model_parts, model_score
+from plugins.track2._scoring import D_REF, OFFICIAL_ADAPT_S, close
+from schemas import EpisodeResult, EpisodeStats, NamedItem, Precondition, ScoreCard, TaskModel
+from schemas._files import StateVariable, SuccessCriterion
+from schemas._result import EpisodeStatus
+from simhost.track2 import InstanceParams, task_truth
+
+TRACK = load_track("track2")
+
+
+@pytest.fixture(scope="module")
+def scenario() -> Scenario:
+    s = TRACK.make_scenario(seed=0, split="standard", params={"demo_frames": False})
+    assert s.params["family"] == "insertion"
+    return s
+
+
+def _far(s: Scenario, distance: float = 1.0) -> Scenario:
+    return dataclasses.replace(s, params={**s.params, "distance": distance})
+
+
+def truth_of(s: Scenario) -> dict[str, Any]:
+    return task_truth(InstanceParams.model_validate(s.params["instance"]))
+
+
+def model_from_truth(truth: dict[str, Any], **changes: Any) -> TaskModel:
+    m = TaskModel(
+        family=truth["family"],
+        stages=list(truth["stages"]),
+        variables=[StateVariable(**v) for v in truth["state_variables"]],
+        constraints=[NamedItem(name=c["name"], value=c["value"]) for c in truth["constraints"]],
+        preconditions=[Precondition(stage=k, requires=v)
+                       for k, v in truth["preconditions"].items()],
+        success_criteria=[SuccessCriterion(**c) for c in truth["success"]],
+    )
+    return m.model_copy(update=changes)
+
+
+def outcome(*, won: int | None = 1, tried: int | None = None, progress: float = 1.0,
+            steps: int = 100, adapt_s: float = 0.0, **stats: Any) -> dict[str, Any]:
+    n = tried if tried is not None else (won or 3)
+    attempts = [{"index": k, "steps": steps // n, "success": k == won,
+                 "peak_progress": 1.0 if k == won else progress} for k in range(1, n + 1)]
+    return {"attempts": attempts, "max_attempts": 3, "success": won is not None,
+            "success_attempt": won, "best_progress": 1.0 if won else progress,
+            "adapt_time_s": adapt_s, "steps": steps, **stats}
+
+
+def score(s: Scenario, o: dict[str, Any], model: TaskModel | None = None, *,
+          snapshots: dict[str, Any] | None = None, invalid: int = 0) -> ScoreCard:
+    files = {} if model is None else {"task_model.json": model}
+    return TRACK.score(ScoringInput(
+        scenario=s, status=EpisodeStatus.COMPLETED, end_reason="success", stages_reached=(),
+        outcome=o, files=files, snapshots=snapshots or {}, steps=int(o.get("steps", 0)),
+        invalid_actions=invalid, protocol_errors=0))
+
+
+def test_weights_are_equation_3() -> None:
+    assert WEIGHTS == {"success": 0.45, "adaptation": 0.20, "generalization": 0.15,
+                       "task_model": 0.10, "stability": 0.10}
+
+
+def test_perfect_episode_scores_one(scenario: Scenario) -> None:
+    s = _far(scenario)
+    card = score(s, outcome(won=1), model_from_truth(truth_of(s)))
+    assert card.components == {"success": 1.0, "adaptation": 1.0, "generalization": 1.0,
+                               "task_model": 1.0, "stability": 1.0}
+    assert card.total == pytest.approx(1.0)
+    assert card.metrics["task_success"] == 1.0 and card.metrics["attempts"] == 1.0
+    assert card.metrics["family_insertion"] == 1.0
+
+
+def test_empty_episode_scores_zero(scenario: Scenario) -> None:
+    o = {"attempts": [], "max_attempts": 3, "success": False, "success_attempt": None,
+         "best_progress": 0.0, "adapt_time_s": 0.0, "steps": 0}
+    card = score(scenario, o)
+    assert card.total == 0.0 and set(card.components.values()) == {0.0}
+    assert card.metrics["attempts"] == 3.0  # a failure needed every attempt allowed
+    assert "no valid task_model.json" in card.notes
+
+
+def test_wrong_or_missing_family_makes_the_model_worthless(scenario: Scenario) -> None:
+    truth = truth_of(scenario)
+    assert model_score(model_from_truth(truth), truth) == pytest.approx(1.0)
+    assert model_score(model_from_truth(truth, family="rotation"), truth) == 0.0
+    assert model_score(model_from_truth(truth, family=None), truth) == 0.0
+    card = score(scenario, outcome(), model_from_truth(truth, family="assembly"))
+    assert card.components["task_model"] == 0.0
+    assert any("'assembly'" in n for n in card.notes)
+
+
+def test_partial_and_padded_models(scenario: Scenario) -> None:
+    truth = truth_of(scenario)
+    only_stages = TaskModel(family="insertion", stages=list(truth["stages"]))
+    assert model_parts(only_stages, truth)["stages"] == 1.0
+    assert model_score(only_stages, truth) == pytest.approx(0.2)
+    shuffled = model_from_truth(truth, stages=list(reversed(truth["stages"])))
+    assert model_parts(shuffled, truth)["stages"] == pytest.approx(1 / len(truth["stages"]))
+    perfect = model_from_truth(truth)
+    padded = perfect.model_copy(update={"constraints": perfect.constraints + [
+        NamedItem(name=f"guess_{k}", value=k) for k in range(10)]})
+    assert model_parts(padded, truth)["constraints"] < 0.5 < model_parts(perfect, truth)[
+        "constraints"]
+    # A value a little off earns part of its credit; a wrong op none.
+    off = [c.model_copy(update={"value": c.value * 1.1}) if isinstance(c.value, float) else c
+           for c in perfect.success_criteria]
+    assert 0.5 < model_parts(perfect.model_copy(update={"success_criteria": off}),
+                             truth)["success"] < 1.0
+    wrong_op = [c.model_copy(update={"op": "<="}) if c.op == ">=" else c
+                for c in perfect.success_criteria]
+    assert model_parts(perfect.model_copy(update={"success_criteria": wrong_op}),
+                       truth)["success"] < 1.0
+
+
+def test_values_compare_by_type() -> None:
+    assert close(True, True) == 1.0 and close(1, True) == 0.0 and close(True, 1) == 0.0
+    assert close("Square", "square") == 1.0 and close("round", "square") == 0.0
+    assert close(0.004, 0.004) == 1.0 and 0.0 < close(0.0045, 0.004) < 1.0
+    assert close(float("nan"), 0.004) == 0.0 and close("0.004", 0.004) == 0.0
+    assert close([0.5, 0.7], [0.5, 0.7]) == 1.0 and close([0.5], [0.5, 0.7]) == 0.0
+
+
+def test_success_at_the_first_attempt_beats_the_third(scenario: Scenario) -> None:
+    s = _far(scenario)
+    model = model_from_truth(truth_of(s))
+    first, third = score(s, outcome(won=1), model), score(s, outcome(won=3), model)
+    assert first.components["adaptation"] == pytest.approx(1.0)
+    assert third.components["adaptation"] == pytest.approx(0.6 / 3 + 0.4)
+    assert first.total - third.total == pytest.approx(0.20 * 0.4)
+    assert (first.metrics["attempts"], third.metrics["attempts"]) == (1.0, 3.0)
+    slow = score(s, outcome(won=1, adapt_s=OFFICIAL_ADAPT_S / 2), model)
+    assert slow.components["adaptation"] == pytest.approx(0.6 + 0.4 * 0.5)
+    assert slow.metrics["adapt_time_min"] == pytest.approx(OFFICIAL_ADAPT_S / 120)
+
+
+def test_failure_scores_progress_weighted_by_distance(scenario: Scenario) -> None:
+    o = outcome(won=None, progress=0.6)
+    far, near = score(_far(scenario, D_REF), o), score(_far(scenario, 0.0), o)
+    assert far.components["success"] == far.components["adaptation"] == 0.0
+    assert far.components["generalization"] == pytest.approx(0.6)
+    assert near.components["generalization"] == pytest.approx(0.3)
+    half = score(_far(scenario, D_REF / 2), o)
+    assert half.components["generalization"] == pytest.approx(0.6 * 0.75)
+
+
+def test_stability_penalties(scenario: Scenario) -> None:
+    clean = score(scenario, outcome(steps=100)).components["stability"]
+    assert clean == 1.0
+    cases = {"drops": {"drops": 1}, "force": {"excess_force_steps": 10},
+             "limits": {"limit_steps": 10}, "jerk": {"jerk_steps": 10},
+             "warnings": {"sim_warnings": 2}}
+    for name, stats in cases.items():
+        got = score(scenario, outcome(steps=100, **stats)).components["stability"]
+        assert 0.0 < got < 1.0, name
+    invalid = score(scenario, outcome(steps=100), invalid=25).components["stability"]
+    assert invalid == pytest.approx(1 - 2 * 25 / 125)
+    assert score(scenario, outcome(steps=100, drops=5)).components["stability"] == 0.0
+
+
+def test_the_latest_valid_snapshot_stands_in_for_a_missing_model(scenario: Scenario) -> None:
+    truth = truth_of(scenario)
+    snaps = {"parsing": {"task_model.json": model_from_truth(truth)}}
+    card = score(scenario, outcome(), None, snapshots=snaps)
+    assert card.components["task_model"] == pytest.approx(1.0)
+
+
+def _result(family: str, total: float, *, won: bool, attempts: float, model: float,
+            split: str = "standard") -> EpisodeResult:
+    card = ScoreCard(track="track2", total=total, components={}, weights={},
+                     metrics={"task_success": float(won), "task_model": model,
+                              "attempts": attempts, "adapt_time_min": 1.0,
+                              f"family_{family}": 1.0})
+    return EpisodeResult(episode="e", track="track2", split=split, image="i", runtime="local",
+                         status=EpisodeStatus.COMPLETED, score=card,
+                         stats=EpisodeStats(wall_s=120.0), started_at=0.0, finished_at=1.0)
+
+
+def test_summarize_has_table_vii_layout() -> None:
+    results = [_result("insertion", 0.8, won=True, attempts=1, model=0.9),
+               _result("insertion", 0.4, won=False, attempts=3, model=0.5, split="challenge"),
+               _result("tool_use", 0.3, won=False, attempts=3, model=0.2)]
+    row = TRACK.summarize(results)
+    assert [c.title for c in TRACK.columns][:10] == [
+        "Insertion", "Rotation", "Assembly", "Open/Close", "Tool Use", "Avg. Score", "Succ. %",
+        "Task Model %", "Attempts", "Adapt. Time min"]
+    assert {c.key for c in TRACK.columns} <= set(row)
+    assert row["insertion"] == pytest.approx(60.0) and row["tool_use"] == pytest.approx(30.0)
+    assert row["rotation"] is None
+    assert row["final"] == pytest.approx(50.0)
+    assert row["task_success"] == pytest.approx(100 / 3)
+    assert row["task_model"] == pytest.approx(160 / 3)
+    assert row["attempts"] == pytest.approx(7 / 3)
+    assert row["standard"] == pytest.approx(55.0) and row["challenge"] == pytest.approx(40.0)
+    assert row["runtime_min"] == pytest.approx(2.0)
+    lower = {c.key for c in TRACK.columns if c.lower_is_better}
+    assert TRACK.tie_breaks == ("task_success", "task_model", "attempts", "adapt_time_min",
+                                "runtime_min")
+    assert {"attempts", "adapt_time_min", "runtime_min"} <= lower
+    assert math.isclose(sum(TRACK.weights.values()), 1.0)

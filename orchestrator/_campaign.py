@@ -152,10 +152,6 @@ class CampaignReport:
     nodes: set[str] = field(default_factory=set)
     metrics_port: int | None = None
 
-    @property
-    def complete(self) -> bool:
-        return not self.cancelled and self.quarantined == 0
-
 
 class Events:
     """``events.jsonl``: what the driver saw, one JSON object a line (no seeds)."""
@@ -387,7 +383,15 @@ class Driver:
     def _drain(self) -> None:
         import ray
 
-        for ev in ray.get(self.board.drain.remote(), timeout=30):
+        from orchestrator._fanout import ProgressBoard
+
+        try:
+            events = ray.get(self.board.drain.remote(), timeout=30)
+        except ray.exceptions.RayError as e:  # its node died: only live progress is lost
+            log.warning("the progress board is gone (%s); starting a new one", e)
+            self.board = ProgressBoard.remote()
+            return
+        for ev in events:
             if ev["episode"] in self.finished:
                 continue
             self.running[ev["episode"]] = ev
@@ -404,6 +408,7 @@ class Driver:
         job = self.pending.pop(ref)
         self.running.pop(job.episode, None)
         self.finished.add(job.episode)
+        self.metrics.set_running(len(self.running))
         key = EpisodeKey(job.submission, job.split, job.index)
         where = {"submission": job.submission, "split": job.split, "index": job.index,
                  "retry": job.retry, "episode": job.episode}

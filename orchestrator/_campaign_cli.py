@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import os
 import re
+import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -25,8 +26,8 @@ campaign_app = typer.Typer(
     no_args_is_help=True,
     pretty_exceptions_enable=False,
 )
-out = Console()
-err = Console(stderr=True)
+out = Console(width=None if sys.stdout.isatty() else 160)  # piped: room for the columns
+err = Console(stderr=True, width=None if sys.stderr.isatty() else 160)
 
 CampaignArg = Annotated[Path, typer.Argument(help="The campaign file (YAML).")]
 FORMATS = ("table", "csv", "json", "md")
@@ -238,6 +239,28 @@ def example_agents_by_track(tracks: list[str]) -> dict[str, dict[str, Path]]:
     return found
 
 
+def _build_examples(examples: dict[str, dict[str, Path]], console: Console
+                    ) -> dict[str, dict[str, Path]]:
+    """Builds the example agents offline; an agent that fails to build is left out."""
+    from orchestrator._docker import docker_client
+    from orchestrator._images import ImageBuildError, build_agent_base, build_folder
+
+    client = docker_client()
+    built: dict[str, dict[str, Path]] = {}
+    with console.status("building images offline (first time: about a minute)…"):
+        build_agent_base(client, lambda m: console.print(f"[dim]{m}[/]"))
+        for track, agents in examples.items():
+            for tag, folder in agents.items():
+                try:
+                    build_folder(client, folder, tag, lambda m: console.print(f"[dim]{m}[/]"))
+                except ImageBuildError as e:
+                    first = str(e).splitlines()[0]
+                    console.print(f"[yellow]skipping {tag}: it does not build ({first})[/]")
+                    continue
+                built.setdefault(track, {})[tag] = folder
+    return built
+
+
 def local_campaign(*, runtime: str = "auto", episodes: int = 2, workers: int | None = None,
                    output: Path = Path("runs"), console: Console | None = None) -> int:
     """A small local campaign per installed track with example agents, then its leaderboard.
@@ -265,10 +288,7 @@ def local_campaign(*, runtime: str = "auto", episodes: int = 2, workers: int | N
             console.print(f"[yellow]skipping track {name}: {e}[/]")
     examples = example_agents_by_track([t.name for t in tracks])
     if runtime == "docker" and any(examples.values()):
-        from orchestrator._images import build_all
-
-        with console.status("building images offline (first time: about a minute)…"):
-            build_all(say=lambda m: console.print(f"[dim]{m}[/]"))
+        examples = _build_examples(examples, console)
     workers = workers or max(1, min(2, os.cpu_count() or 1))
     stamp = time.strftime("%Y%m%d-%H%M%S")
     code = 0

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import logging
-import random
+import sys
 from pathlib import Path
 from typing import Annotated
 
 import typer
 from rich.console import Console
+
+from orchestrator._campaign_cli import campaign_app, leaderboard_cmd, status_cmd
 
 app = typer.Typer(
     help="eagc: the evaluation system of the EAGC 2026 World Model Challenge.",
@@ -17,9 +19,15 @@ app = typer.Typer(
 )
 images_app = typer.Typer(help="Build the base, agent-base and example images offline.")
 app.add_typer(images_app, name="images")
-console = Console()
+app.add_typer(campaign_app, name="campaign")
+# Top-level aliases of the commands an organizer types most.
+app.command("leaderboard", help="Alias of `eagc campaign leaderboard`.")(leaderboard_cmd)
+app.command("status", help="Alias of `eagc campaign status`.")(status_cmd)
+# Piped or logged output (CI, `| tee`) gets room for the leaderboards' columns; a terminal
+# keeps its own width.
+console = Console(width=None if sys.stdout.isatty() else 160)
 #: Progress and warnings: stderr, so that --json output stays clean.
-notes = Console(stderr=True)
+notes = Console(stderr=True, width=None if sys.stderr.isatty() else 160)
 
 
 def local_command(image: str) -> str:
@@ -97,28 +105,17 @@ def run_episode_cmd(
 @app.command()
 def demo(
     runtime: Annotated[str, typer.Option(help="auto, docker or local.")] = "auto",
-    seed: Annotated[int | None, typer.Option(help="Scenario seed (random by default).")] = None,
+    episodes: Annotated[int, typer.Option(min=1, help="Episodes per split and agent.")] = 2,
+    workers: Annotated[int | None, typer.Option(help="Containers at a time.")] = None,
     runs_dir: Annotated[Path, typer.Option()] = Path("runs"),
 ) -> None:
-    """One sanity episode with the example agent: in a container when a Docker engine
-    answers (building the images offline first), otherwise as a local process."""
-    if runtime == "auto":
-        runtime = "docker" if _docker_answers() else "local"
-        if runtime == "local":
-            console.print("[yellow]No Docker engine answers: running the example agent as a "
-                          "local process instead (no sandbox).[/]")
-    image = "eagc/sanity-agent:latest"
-    if runtime == "docker":
-        from orchestrator._images import build_all
+    """A small local campaign on an embedded Ray: the example agents of every installed
+    track, in containers when a Docker engine answers (images built offline first),
+    otherwise as local processes; ends with each track's leaderboard."""
+    from orchestrator._campaign_cli import local_campaign
 
-        with console.status("building images offline (first time: about a minute)…"):
-            build_all(say=lambda m: console.print(f"[dim]{m}[/]"))
-    else:
-        image = local_command(image)
-    seed = random.randrange(1 << 31) if seed is None else seed
-    console.print(f"sanity episode, seed {seed}, runtime {runtime}")
-    raise typer.Exit(_run_one("sanity", image, runtime, seed, "challenge", 1.0, None, 512, 1.0,
-                              runs_dir, False))
+    raise typer.Exit(local_campaign(runtime=runtime, episodes=episodes, workers=workers,
+                                    output=runs_dir, console=notes))
 
 
 @app.command("test")

@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from collections import deque
 from pathlib import Path
 
@@ -38,6 +39,22 @@ class LocalAgent(AgentHandle):
         self._reader.start()
         self._exit: ContainerExit | None = None
         self._lock = threading.Lock()
+        # Peak resident memory of the agent's own process (VmHWM), sampled while it runs: the
+        # worker's RUSAGE_CHILDREN would mix every agent this process ever started.
+        self.peak: int | None = None
+        threading.Thread(target=self._sample, daemon=True).start()
+
+    def _sample(self) -> None:
+        status = f"/proc/{self.proc.pid}/status"
+        while self.proc.poll() is None:
+            try:
+                with open(status) as f:
+                    for line in f:
+                        if line.startswith("VmHWM:"):
+                            self.peak = max(self.peak or 0, int(line.split()[1]) * 1024)
+            except (OSError, ValueError):
+                pass
+            time.sleep(0.2)
 
     def _read(self) -> None:
         assert self.proc.stdout is not None
@@ -69,7 +86,7 @@ class LocalAgent(AgentHandle):
                 exit_code=code if code >= 0 else 128 - code,
                 oom_killed=False,
                 killed_by_host=killed,
-                peak_memory_bytes=resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024,
+                peak_memory_bytes=self.peak,
                 log_tail="".join(self._tail)[-4000:],
             )
             return self._exit

@@ -174,6 +174,42 @@ def replay(
     console.print("[green]the replay matches the log bit for bit[/]")
 
 
+@app.command()
+def preview(
+    seed: Annotated[int, typer.Option(help="Scenario seed (a public one).")] = 0,
+    split: Annotated[str, typer.Option()] = "standard",
+    out: Annotated[Path, typer.Option(help="Folder for the PNG.")] = Path("."),
+) -> None:
+    """Track 1 scene preview: the top-down map (rooms, doors, objects, task) and a camera
+    frame, as PNG."""
+    from plugins.track1 import preview as render_preview
+
+    for path in render_preview(seed, split, out):
+        console.print(f"[green]✓[/] {path}")
+
+
+@app.command()
+def picture(
+    episode: Annotated[Path, typer.Argument(help="An episode folder (runs/<episode>).")],
+) -> None:
+    """Draw an episode: Track 1's trajectory over the map, Track 2's attempt beside the
+    demonstration."""
+    from schemas import EpisodeResult, load_json
+
+    result = load_json(episode / "host" / "result.json", EpisodeResult)
+    if result.track == "track1":
+        from plugins.track1 import trajectory_png
+
+        path = trajectory_png(episode)
+    elif result.track == "track2":
+        from plugins.track2 import attempt_png
+
+        path = attempt_png(episode)
+    else:
+        raise typer.BadParameter(f"no picture for track {result.track!r} yet")
+    console.print(f"[green]✓[/] {path}")
+
+
 @images_app.command("build")
 def images_build(force: Annotated[bool, typer.Option(help="Rebuild everything.")] = False) -> None:
     """Build eagc/base, eagc/agent-base and the example agents, with no registry."""

@@ -104,6 +104,9 @@ def check_observation(spec: tuple[FieldSpec, ...], obs: Observation, where: str)
         else:
             assert f.name in obs.data, f"{where}: {f.name!r} is a JSON field but came as a tensor"
             value = obs.data[f.name]
+        if f.dtype == "json":
+            json.dumps(value, allow_nan=False)  # any plain JSON value, nothing else
+            continue
         if f.dtype == "str":
             assert isinstance(value, str), f"{where}: {f.name!r} should be a string"
             assert f.choices is None or value in f.choices, f"{where}: {f.name!r}={value!r}"

@@ -56,7 +56,9 @@ class ObjectEntry(_File):
     room: Id | None = None
     receptacle: Id | None = Field(default=None, description="Furniture or container it is on/in.")
     position: tuple[float, float] | None = Field(default=None, description="World x, y (m).")
-    state: str | None = None
+    state: str | None = Field(
+        default=None, description="Visible state (dirty, sliced, …); 'removed' when gone."
+    )
 
 
 class Affordance(_File):
@@ -65,7 +67,14 @@ class Affordance(_File):
 
 
 class WorldModel(_File):
-    """``world_model.json``."""
+    """``world_model.json``: the agent's queryable model of the house (Track 1).
+
+    Ids are the ones observations expose: room ids from the ``room`` observation, instance
+    ids of doors, containers, objects and tools from the detections; positions are world
+    x, y (m) in the odometry frame. Track 1 grades the snapshot taken when exploration ends
+    (room-graph edges, object inventory by category and room with a position tolerance,
+    door and container states, tool affordances) and, after an exception, the final file.
+    """
 
     version: Literal["eagc-world-model/v1"] = WORLD_MODEL_VERSION
     step: int | None = Field(default=None, description="Agent step at which it was written.")

@@ -39,7 +39,9 @@ class FieldSpec(_Frozen):
     """One named entry of an observation or action: what it holds and what is allowed."""
 
     name: str
-    dtype: DType | Literal["str"]
+    dtype: DType | Literal["str", "json"] = Field(
+        description="A tensor dtype; 'str' for text; 'json' for any JSON value (observations)."
+    )
     shape: tuple[int, ...] = ()
     low: float | None = Field(default=None, description="Inclusive lower bound (numbers).")
     high: float | None = Field(default=None, description="Inclusive upper bound (numbers).")

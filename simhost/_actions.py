@@ -42,6 +42,8 @@ def _fast_floats(spec: FieldSpec, value: list[Any]) -> np.ndarray | None:
 
 
 def _check_field(spec: FieldSpec, value: Any) -> Any:
+    if spec.dtype == "json":
+        raise ActionError(f"{spec.name}: 'json' fields are for observations, not actions")
     if spec.dtype in _FLOATS and type(value) is list:
         fast = _fast_floats(spec, value)
         if fast is not None:

@@ -254,8 +254,8 @@ class SimHost:
             log.exception("internal error while serving episode %s", self.config.episode)
             reply = self._error("internal", f"host error: {type(e).__name__}", fatal=True)
             self._finish("internal_error", "stopped")
+        self._last_reply_at = time.monotonic()  # before the put: the agent may answer at once
         self._pub.put(reply)
-        self._last_reply_at = time.monotonic()
 
     # ------------------------------------------------------------------- handling
     def _error(self, code: str, message: str, *, fatal: bool = False) -> bytes:

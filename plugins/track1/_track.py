@@ -1,0 +1,85 @@
+"""``Track1``: unseen-environment exploration and closed-loop execution (paper §III, DESIGN §5).
+
+Stages (Table II, official budgets; a campaign's ``time_scale`` and step caps scale them):
+``exploration`` 20 min, ``planning`` 10 min (nothing moves; the plan ends it), ``execution``
+60 min. Splits: ``standard`` (3–5 rooms, an exception in about half the episodes, weight
+0.6) and ``challenge`` (6–8 rooms, always an exception, weight 0.4), as in equation (2).
+Files: ``world_model.json`` and ``episode_log.jsonl``, both required. Score: equation (1),
+see ``_score``. Leaderboard: Table IV's columns; ties by task success, model verification,
+recovery, invalid actions, runtime.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from plugins._base import Column, FileRule, Scenario, ScoringInput, TrackPlugin
+from plugins.track1 import _score
+from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, Track1Episode
+from plugins.track1._scenario import check_params, scenario_params
+from schemas import EpisodeResult, ScoreCard, WorldModel
+from simhost._episode import StageSpec, TrackEpisode
+
+
+class Track1(TrackPlugin):
+    name = "track1"
+    title = "Track 1: unseen-environment exploration and closed-loop execution (houses)"
+    weights = dict(_score.WEIGHTS)
+    files = {
+        "world_model.json": FileRule(WorldModel),
+        "episode_log.jsonl": FileRule(None, jsonl=True),
+    }
+    splits = {
+        "standard": (0.6, {"rooms": [3, 5], "exception_probability": 0.5}),
+        "challenge": (0.4, {"rooms": [6, 8], "exception_probability": 1.0}),
+    }
+    columns = (
+        Column("standard", "Std."),
+        Column("challenge", "Ch."),
+        Column("final", "Final"),
+        Column("task_success", "Task Succ. %"),
+        Column("model_verification", "Model Verif. %"),
+        Column("recovery", "Recovery %"),
+        Column("invalid_actions", "Invalid Act/Ep", lower_is_better=True),
+        Column("latency_ms", "Latency ms", "{:.0f}", lower_is_better=True),
+        Column("peak_mem_gb", "Peak Mem GB", "{:.2f}", lower_is_better=True),
+        Column("runtime_min", "Runtime min", "{:.1f}", lower_is_better=True),
+    )
+    tie_breaks = ("task_success", "model_verification", "recovery", "invalid_actions",
+                  "runtime_min")
+
+    def stages(self) -> list[StageSpec]:
+        return [
+            StageSpec(EXPLORATION, budget_s=20 * 60.0,
+                      description="explore; build the topology, object states and a queryable "
+                      "model (world_model.json)"),
+            StageSpec(PLANNING, budget_s=10 * 60.0, allows_motion=False,
+                      description="instruction and queries arrive; answer them, end the stage "
+                      "with the plan (end_stage payload); nothing moves"),
+            StageSpec(EXECUTION, budget_s=60 * 60.0,
+                      description="execute, update the model, recover from the exception; "
+                      "send done when finished"),
+        ]
+
+    def make_scenario(self, *, seed: int, split: str, params: Mapping[str, Any]) -> Scenario:
+        merged = {**self.splits.get(split, (1.0, {}))[1], **params}
+        check_params(merged)
+        return Scenario(track=self.name, split=split, seed=seed,
+                        params=scenario_params(seed, merged))
+
+    def make_episode(self, scenario: Scenario) -> TrackEpisode:
+        return Track1Episode(scenario)
+
+    def score(self, data: ScoringInput) -> ScoreCard:
+        return _score.score(data, self.name)
+
+    def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:
+        """Table IV's row: Std., Ch., Final (eq. 2), Task Succ. %, Model Verif. %, Recovery %
+        (over the episodes with an exception), Invalid Act/Ep, latency, memory, runtime."""
+        row = super().summarize(results)
+        for split in self.splits:
+            row.setdefault(split, None)
+        for key in ("task_success", "model_verification", "recovery"):
+            row.setdefault(key, None)
+        return row

@@ -1,0 +1,62 @@
+"""One full Track 1 episode: the heuristic map planner in its container, built offline, under
+the full sandbox, with scaled budgets (DESIGN §4, §5)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from mcap.reader import make_reader
+
+from orchestrator._docker import DockerRuntime
+from orchestrator._worker import EpisodeSpec, run_episode
+from plugins.track1 import trajectory_png
+from schemas import EpisodeStatus, Limits, LogRecord, WorldModel, parse_json, parse_jsonl
+
+pytestmark = [pytest.mark.docker]
+
+
+def test_heuristic_track1_episode_in_its_container(docker_engine: Any, images: dict,
+                                                   runs_dir: Path) -> None:
+    assert "eagc/track1-heuristic:latest" in images
+    spec = EpisodeSpec(track="track1", image="eagc/track1-heuristic:latest", seed=1001,
+                       split="standard", runs_dir=runs_dir, exit_grace_s=10.0,
+                       limits=Limits(time_scale=0.1, max_steps_per_stage=400, memory_mb=1024))
+    result = run_episode(spec, DockerRuntime(docker_engine))
+    assert result.status is EpisodeStatus.COMPLETED, result.failure
+    assert result.runtime == "docker" and result.container is not None
+    assert result.stages_reached == ("exploration", "planning", "execution")
+    card = result.score
+    assert card.metrics["task_success"] == 1.0, card
+    assert card.metrics["model_verification"] > 0.8 and card.total > 0.8, card
+    assert card.metrics["recovery"] == 1.0  # seed 1001 has a door lock on the agent's route
+    assert result.stats.latency_ms_median is not None and result.stats.peak_memory_bytes
+
+    host = Path(result.episode_dir or "") / "host"
+    model = parse_json((host / "output" / "world_model.json").read_bytes(), WorldModel,
+                       source="world_model.json")
+    assert model.rooms and model.connections and model.objects
+    log = parse_jsonl((host / "output" / "episode_log.jsonl").read_bytes(), source="log")
+    assert any(isinstance(r, LogRecord) and r.event == "exception_detected"
+               and r.exception_type == "door_lock" for r in log)
+    assert (host / "snapshots" / "exploration" / "world_model.json").is_file()
+
+    topics: dict[str, int] = {}
+    plan_sent = False
+    with open(host / "episode.mcap", "rb") as f:
+        for _, channel, message in make_reader(f).iter_messages():
+            topics[channel.topic] = topics.get(channel.topic, 0) + 1
+            if channel.topic == "/eagc/request":
+                body = json.loads(message.data)
+                plan_sent |= body.get("kind") == "end_stage" and "plan" in body.get("payload", {})
+    for topic in ("/eagc/scenario", "/eagc/observation", "/eagc/event", "/eagc/score",
+                  "/eagc/file/exploration/world_model.json"):
+        assert topics.get(topic), f"MCAP has no {topic}: {sorted(topics)}"
+    assert plan_sent, "the plan did not travel in the end_stage payload"
+    assert trajectory_png(result.episode_dir or "").stat().st_size > 1000
+
+    left = docker_engine.containers.list(
+        all=True, filters={"label": f"eagc.episode={result.episode}"})
+    assert left == [], "the episode's container is still there"

@@ -1,0 +1,70 @@
+"""Track 1 pictures: a scenario's preview and an episode's trajectory from its MCAP log."""
+
+from __future__ import annotations
+
+import shutil
+import struct
+import tempfile
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from orchestrator._local import LocalProcessRuntime
+from orchestrator._worker import EpisodeSpec, run_episode
+from plugins.track1 import preview, trajectory_png
+from plugins.track1._pictures import STAGE_COLOURS
+from schemas import EpisodeStatus, Limits
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _read_png(path: Path) -> np.ndarray:
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    pos, idat, size = 8, b"", (0, 0)
+    while pos < len(data):
+        (length,) = struct.unpack(">I", data[pos:pos + 4])
+        tag, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + length]
+        if tag == b"IHDR":
+            size = struct.unpack(">II", body[:8])
+        elif tag == b"IDAT":
+            idat += body
+        pos += 12 + length
+    w, h = size
+    raw = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(h, w * 3 + 1)
+    return raw[:, 1:].reshape(h, w, 3)
+
+
+def _has(img: np.ndarray, rgb: tuple[int, int, int]) -> bool:
+    return bool((img == np.array(rgb, np.uint8)).all(axis=2).any())
+
+
+def test_preview_shows_the_map_and_a_camera_frame(tmp_path: Path) -> None:
+    (path,) = preview(7, "challenge", tmp_path / "pics")
+    assert path == tmp_path / "pics" / "track1-challenge-7.png"
+    img = _read_png(path)
+    assert img.shape[0] >= 240 and img.shape[1] > 320 + 200
+    camera = img[:240, -320:]
+    assert camera.std() > 5, "the camera frame is blank"
+    assert _has(img, (220, 0, 200)) and _has(img, (0, 170, 210))  # the task's two rings
+
+
+def test_trajectory_of_a_recorded_episode(tmp_path: Path) -> None:
+    runs = Path(tempfile.mkdtemp(prefix="t1p-", dir="/tmp"))  # short: unix socket paths
+    try:
+        spec = EpisodeSpec(track="track1", seed=3, split="standard",
+                           image=f"python {ROOT / 'examples' / 'track1_sanity' / 'agent.py'}",
+                           limits=Limits(max_steps_per_stage=100, time_scale=0.1),
+                           runs_dir=runs)
+        result = run_episode(spec, LocalProcessRuntime(quiet=True))
+        assert result.status is EpisodeStatus.COMPLETED, result.failure
+        path = trajectory_png(result.episode_dir or "")
+        assert path == Path(result.episode_dir or "") / "host" / "trajectory.png"
+        img = _read_png(path)
+        assert _has(img, STAGE_COLOURS["exploration"]) and _has(img, STAGE_COLOURS["execution"])
+    finally:
+        shutil.rmtree(runs, ignore_errors=True)
+    with pytest.raises(FileNotFoundError, match="episode folder"):
+        trajectory_png(tmp_path)

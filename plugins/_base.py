@@ -74,6 +74,19 @@ def _mean(values: Sequence[float]) -> float | None:
     return sum(values) / len(values) if values else None
 
 
+def resource_columns(results: Sequence[EpisodeResult]) -> dict[str, float | None]:
+    """The columns every track shares: agent latency (median of the episodes' medians),
+    peak memory (the largest), mean runtime, and the number of episodes."""
+    lat = [r.stats.latency_ms_median for r in results if r.stats.latency_ms_median is not None]
+    mem = [r.stats.peak_memory_bytes for r in results if r.stats.peak_memory_bytes]
+    return {
+        "latency_ms": sorted(lat)[len(lat) // 2] if lat else None,
+        "peak_mem_gb": max(mem) / 2**30 if mem else None,
+        "runtime_min": _mean([r.stats.wall_s / 60 for r in results]),
+        "episodes": float(len(results)),
+    }
+
+
 class TrackPlugin(ABC):
     """A track: stages, scenarios, episodes, file checks, scoring and its leaderboard."""
 
@@ -170,12 +183,7 @@ class TrackPlugin(ABC):
             [r.stats.invalid_actions + sum(
                 n for c, n in r.stats.protocol_errors.items() if c != "invalid_action")
              for r in results])
-        lat = [r.stats.latency_ms_median for r in results if r.stats.latency_ms_median is not None]
-        row["latency_ms"] = sorted(lat)[len(lat) // 2] if lat else None
-        mem = [r.stats.peak_memory_bytes for r in results if r.stats.peak_memory_bytes]
-        row["peak_mem_gb"] = max(mem) / 2**30 if mem else None
-        row["runtime_min"] = _mean([r.stats.wall_s / 60 for r in results])
-        row["episodes"] = float(len(results))
+        row.update(resource_columns(results))
         return row
 
     def parse_snapshot(self, files: Mapping[str, bytes]) -> dict[str, Any]:

@@ -16,7 +16,15 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from plugins._base import Column, FileRule, Scenario, ScoringInput, TrackPlugin, _mean
+from plugins._base import (
+    Column,
+    FileRule,
+    Scenario,
+    ScoringInput,
+    TrackPlugin,
+    _mean,
+    resource_columns,
+)
 from plugins.track2 import _scoring
 from plugins.track2._episode import DEMO_FOLDER, DEMONSTRATION, EXECUTION, PARSING, Track2Episode
 from plugins.track2._scenario import scenario_params
@@ -150,10 +158,5 @@ class Track2(TrackPlugin):
         row["attempts"] = metric("attempts")
         row["adapt_time_min"] = metric("adapt_time_min")
         row["invalid_actions"] = metric("invalid_actions")
-        lat = [r.stats.latency_ms_median for r in results if r.stats.latency_ms_median is not None]
-        row["latency_ms"] = sorted(lat)[len(lat) // 2] if lat else None
-        mem = [r.stats.peak_memory_bytes for r in results if r.stats.peak_memory_bytes]
-        row["peak_mem_gb"] = max(mem) / 2**30 if mem else None
-        row["runtime_min"] = _mean([r.stats.wall_s / 60 for r in results])
-        row["episodes"] = float(len(results))
+        row.update(resource_columns(results))
         return row

@@ -12,7 +12,6 @@ import json
 import shutil
 import subprocess
 import sys
-import sysconfig
 import textwrap
 import venv
 import zipfile
@@ -114,12 +113,11 @@ def test_agent_runs_with_only_the_base_dependencies(tmp_path, host_episode):
         [str(python), "-I", "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
         check=True, capture_output=True, text=True,
     ).stdout.strip())
-    global_site = Path(sysconfig.get_path("purelib"))
     for name in LIGHT_DISTRIBUTIONS:
         d = distribution(name)
         for top in {f.parts[0] for f in d.files or ()} - {"..", "__pycache__"}:
             origin = Path(d.locate_file(top))
-            assert origin.parent == global_site, origin
+            assert origin.exists(), origin
             (site / top).symlink_to(origin)
 
     # 3. An episode against a real host, from inside that venv.

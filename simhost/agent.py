@@ -118,8 +118,13 @@ class RemoteEnv:
     # ------------------------------------------------------------------ public calls
     def hello(self, agent: str = "") -> HelloReply:
         """Opens the episode. The reply holds the observation/action specs and stages."""
+        # A put before this session has learned of the host's subscriber is dropped here:
+        # wait (briefly) for the match instead of losing the first hello and resending later.
+        deadline = time.monotonic() + 5.0
+        while not self._pub.matching_status.matching and time.monotonic() < deadline:
+            time.sleep(0.001)
         reply = self._call(Hello(seq=self._seq, protocol=PROTOCOL_VERSION, agent=agent), {},
-                           resend_every_s=1.0)
+                           resend_every_s=0.25)
         assert isinstance(reply, HelloReply)
         self.spec = reply
         return reply

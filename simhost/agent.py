@@ -118,13 +118,12 @@ class RemoteEnv:
     # ------------------------------------------------------------------ public calls
     def hello(self, agent: str = "") -> HelloReply:
         """Opens the episode. The reply holds the observation/action specs and stages."""
-        # A put before this session has learned of the host's subscriber is dropped here:
-        # wait (briefly) for the match instead of losing the first hello and resending later.
-        deadline = time.monotonic() + 5.0
-        while not self._pub.matching_status.matching and time.monotonic() < deadline:
-            time.sleep(0.001)
+        # The first hello may be dropped while the two sessions still learn of each other's
+        # subscribers; it is resent. (Waiting for the publisher to match instead halved the
+        # startup time, but then a reply of the host was lost once in a CI run: see the notes
+        # of issue 3 before trying that again.)
         reply = self._call(Hello(seq=self._seq, protocol=PROTOCOL_VERSION, agent=agent), {},
-                           resend_every_s=0.25)
+                           resend_every_s=1.0)
         assert isinstance(reply, HelloReply)
         self.spec = reply
         return reply

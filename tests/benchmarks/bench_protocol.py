@@ -24,11 +24,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import ctypes
-import importlib.metadata
 import json
 import os
-import platform
 import select
 import signal
 import socket
@@ -39,6 +36,8 @@ import tempfile
 import time
 from pathlib import Path
 from typing import Any
+
+from _machine import die_with_parent, load_average, machine_line  # noqa: E402  (sibling)
 
 ROOT = Path(__file__).resolve().parents[2]
 H, W = 480, 640
@@ -61,15 +60,6 @@ PAYLOADS = ("small", "large")
 
 
 # ================================================================================ children
-def _die_with_parent() -> None:
-    """Linux: SIGKILL this child when the orchestrating parent goes away."""
-    with contextlib.suppress(Exception):
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    if os.getppid() == 1:
-        os._exit(1)
-
-
 def _reply_size(payload: str) -> int:
     return SMALL_REPLY if payload == "small" else LARGE_REPLY
 
@@ -429,7 +419,7 @@ CLIENTS = {
 
 
 def child_main(args: argparse.Namespace) -> int:
-    _die_with_parent()
+    die_with_parent()
     if args.role == "server":
         SERVERS[args.case](args.sock, args.payload)
         return 0
@@ -518,33 +508,8 @@ def _stats(ns: list[int]) -> dict[str, float]:
     return {"median": q(0.5), "p99": q(0.99), "rate": 1e6 / mean, "n": len(s)}
 
 
-def _load() -> str:
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "?"
-
-
 def _machine() -> str:
-    model = ""
-    with contextlib.suppress(OSError):
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    try:
-        zv = importlib.metadata.version("eclipse-zenoh")
-    except importlib.metadata.PackageNotFoundError:
-        zv = "?"
-    try:
-        gv = importlib.metadata.version("grpcio")
-    except importlib.metadata.PackageNotFoundError:
-        gv = "?"
-    return (
-        f"machine: nproc={len(os.sched_getaffinity(0))} ({model or platform.machine()}), "
-        f"python {platform.python_version()}, eclipse-zenoh {zv}, grpcio {gv}, "
-        f"{platform.system()} {platform.release()}"
-    )
+    return machine_line("eclipse-zenoh", "grpcio")
 
 
 def _table(results: dict[tuple[str, str], dict[str, float] | str]) -> list[str]:
@@ -631,7 +596,7 @@ def main() -> int:
         f"round trips: {n_small} small (64 B reply) / {n_large} large "
         f"({LARGE_REPLY} B reply: {W}x{H} RGB uint8 + float32 depth), after "
         f"{warm['small']}/{warm['large']} warm-up per round, {rounds} interleaved round(s); "
-        f"request 64 B (ours: one 2-vector action); load average {_load()}"
+        f"request 64 B (ours: one 2-vector action); load average {load_average()}"
     )
     t_start = time.monotonic()
     samples: dict[tuple[str, str], list[int]] = {}

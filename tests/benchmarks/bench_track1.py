@@ -33,18 +33,17 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import ctypes
-import importlib.metadata
 import json
 import math
 import os
-import platform
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 from typing import Any
+
+from _machine import die_with_parent, load_average, machine_line  # noqa: E402  (sibling)
 
 ROOT = Path(__file__).resolve().parents[2]
 KINDS = ("standard", "challenge")
@@ -70,14 +69,6 @@ COUNTS = {
 
 
 # ================================================================================ children
-def _die_with_parent() -> None:
-    """Linux: SIGKILL this child when the orchestrating parent goes away."""
-    with contextlib.suppress(Exception):
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    if os.getppid() == 1:
-        os._exit(1)
-
 
 def _status_kib(field: str) -> int:
     for line in Path("/proc/self/status").read_text().splitlines():
@@ -298,33 +289,8 @@ def _stats(ns: list[int], phys: list[int]) -> dict[str, float]:
     }
 
 
-def _load() -> str:
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "?"
-
-
-def _version(dist: str) -> str:
-    try:
-        return importlib.metadata.version(dist)
-    except importlib.metadata.PackageNotFoundError:
-        return "?"
-
-
 def _machine() -> str:
-    model = ""
-    with contextlib.suppress(OSError):
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    return (
-        f"machine: nproc={len(os.sched_getaffinity(0))} ({model or platform.machine()}), "
-        f"python {platform.python_version()}, mujoco {_version('mujoco')}, "
-        f"gymnasium {_version('gymnasium')}, numpy {_version('numpy')}, "
-        f"{platform.system()} {platform.release()}, MUJOCO_GL=egl"
-    )
+    return machine_line("mujoco", "gymnasium", "numpy", extra="MUJOCO_GL=egl")
 
 
 def _merge(parts: list[dict[str, Any]]) -> dict[str, Any]:
@@ -431,7 +397,7 @@ def main() -> int:
     args = ap.parse_args()
     seeds = [int(s) for s in args.seeds.split(",") if s]
     if args.child:
-        _die_with_parent()
+        die_with_parent()
         out = child_main(args.child, args.kind, seeds, args.n, args.warmup)
         print(json.dumps(out), flush=True)
         return 0
@@ -450,7 +416,7 @@ def main() -> int:
     print(
         f"seeds {seeds} per house kind; per seed and round: {counts}; {rounds} interleaved "
         f"round(s), one fresh process per configuration, house kind and round; "
-        f"load average {_load()}",
+        f"load average {load_average()}",
         flush=True,
     )
     t_start = time.monotonic()
@@ -495,7 +461,7 @@ def main() -> int:
     print()
     print("\n".join(line.rstrip() for line in _breakdown(results)))
     gl = next((r["gl"] for r in results.values() if isinstance(r, dict) and r.get("gl")), None)
-    print(f"\nGL renderer (rgbd): {gl or '?'}; load average {_load()}")
+    print(f"\nGL renderer (rgbd): {gl or '?'}; load average {load_average()}")
     print(f"total {time.monotonic() - t_start:.0f} s")
     if args.json:
         args.json.write_text(

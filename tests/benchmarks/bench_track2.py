@@ -30,17 +30,16 @@ Not collected by pytest (the file is ``bench_*.py``).
 from __future__ import annotations
 
 import argparse
-import contextlib
 import gc
-import importlib.metadata
 import math
 import os
-import platform
 import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from _machine import load_average, machine_line  # noqa: E402  (sibling)
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
 
@@ -174,35 +173,9 @@ def _q(s: list[int], p: float) -> float:
     return s[min(len(s) - 1, int(round(p * (len(s) - 1))))] / 1e6
 
 
-def _load() -> str:
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "?"
-
-
-def _version(dist: str) -> str:
-    try:
-        return importlib.metadata.version(dist)
-    except importlib.metadata.PackageNotFoundError:
-        return "?"
-
-
 def _machine() -> str:
-    import mujoco
-
-    model = ""
-    with contextlib.suppress(OSError):
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    return (
-        f"machine: nproc={len(os.sched_getaffinity(0))} ({model or platform.machine()}), "
-        f"python {platform.python_version()}, mujoco {mujoco.__version__}, "
-        f"numpy {_version('numpy')}, gymnasium {_version('gymnasium')}, "
-        f"{platform.system()} {platform.release()}, MUJOCO_GL={os.environ.get('MUJOCO_GL')}"
-    )
+    return machine_line("mujoco", "numpy", "gymnasium",
+                        extra=f"MUJOCO_GL={os.environ.get('MUJOCO_GL')}")
 
 
 def _table(cases: list[Case], substeps: int) -> list[str]:
@@ -272,7 +245,7 @@ def main() -> int:
     print(
         f"one instance per family (default_source); control step = {SUBSTEPS} physics substeps; "
         f"~{target} timed control steps per family over {rounds} interleaved round(s); "
-        f"load average {_load()}"
+        f"load average {load_average()}"
     )
     t_start = time.monotonic()
     cases: list[Case] = []
@@ -315,7 +288,7 @@ def main() -> int:
 
     print()
     print("\n".join(_table(cases, SUBSTEPS) + failed))
-    print(f"\nload average at the end {_load()}; total {time.monotonic() - t_start:.0f} s")
+    print(f"\nload average at the end {load_average()}; total {time.monotonic() - t_start:.0f} s")
     return 0 if not failed and all(c.mismatches == 0 for c in cases) else 1
 
 

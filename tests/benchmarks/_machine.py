@@ -1,0 +1,51 @@
+"""What every benchmark prints about the machine, and how its children die with it."""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import importlib.metadata
+import os
+import platform
+import signal
+from pathlib import Path
+
+
+def load_average() -> str:
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "?"
+
+
+def version(dist: str) -> str:
+    try:
+        return importlib.metadata.version(dist)
+    except importlib.metadata.PackageNotFoundError:
+        return "?"
+
+
+def machine_line(*dists: str, extra: str = "") -> str:
+    """``machine: nproc=2 (cpu model), python 3.11.7, <dist> <version>…, Linux <release>``."""
+    model = ""
+    with contextlib.suppress(OSError):
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    parts = [f"machine: nproc={len(os.sched_getaffinity(0))} ({model or platform.machine()})",
+             f"python {platform.python_version()}"]
+    parts += [f"{d} {version(d)}" for d in dists]
+    parts.append(f"{platform.system()} {platform.release()}")
+    if extra:
+        parts.append(extra)
+    return ", ".join(parts)
+
+
+def die_with_parent() -> None:
+    """Linux: SIGKILL this child when the orchestrating parent goes away."""
+    with contextlib.suppress(Exception):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    if os.getppid() == 1:
+        os._exit(1)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -247,6 +248,8 @@ def tracks() -> None:
 
 
 def main() -> None:
+    # Sim hosts render headless (EGL on Mesa); must be set before mujoco is first imported.
+    os.environ.setdefault("MUJOCO_GL", "egl")
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     app()
 

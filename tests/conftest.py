@@ -6,6 +6,7 @@ socket, with ``serve()`` on a thread; ``host_episode`` is one such host with the
 
 from __future__ import annotations
 
+import os
 import secrets
 import threading
 from collections.abc import Callable, Iterator
@@ -13,6 +14,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import pytest
+
+# Headless rendering (EGL on Mesa), set before any test imports mujoco: once mujoco has
+# picked its default GL backend in this process, rendering without a display aborts.
+os.environ.setdefault("MUJOCO_GL", "egl")
 
 # Plain asserts in the shipped conformance suite get pytest's detailed failure messages.
 pytest.register_assert_rewrite("plugins.conformance")

@@ -8,30 +8,15 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from _support import RecordingRuntime  # tests/orchestrator/_support.py
 from mcap.reader import make_reader
 
-from orchestrator._docker import DockerRuntime
-from orchestrator._runtime import AgentHandle, AgentLaunch
 from orchestrator._worker import EpisodeSpec, run_episode
 from schemas import EpisodeResult, EpisodeStatus, Limits, load_json
 
 pytestmark = [pytest.mark.docker]
 
 SECRET_SEED = 987654321
-
-
-class RecordingRuntime(DockerRuntime):
-    """The real DockerRuntime, also keeping what the engine says about each container."""
-
-    def __init__(self, client: Any) -> None:
-        super().__init__(client)
-        self.inspected: list[dict[str, Any]] = []
-
-    def start(self, launch: AgentLaunch) -> AgentHandle:
-        handle = super().start(launch)
-        handle.container.reload()  # type: ignore[attr-defined]
-        self.inspected.append(handle.container.attrs)  # type: ignore[attr-defined]
-        return handle
 
 
 def _run(engine: Any, runs: Path, image: str, *, seed: int = 11, **limits: Any

@@ -7,10 +7,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from _support import RecordingRuntime  # tests/orchestrator/_support.py
 from mcap.reader import make_reader
 
-from orchestrator._docker import DockerRuntime
-from orchestrator._runtime import AgentHandle, AgentLaunch
 from orchestrator._worker import EpisodeSpec, run_episode
 from plugins.track2 import attempt_png
 from schemas import EpisodeResult, EpisodeStatus, Limits
@@ -32,20 +31,6 @@ def track2_images(docker_engine: Any) -> dict[str, str]:
     return {name: build_folder(docker_engine, EXAMPLES / f"track2_{name}",
                                f"eagc/track2-{name}:latest", say=lambda m: None)
             for name in ("waypoint", "demoparser")}
-
-
-class RecordingRuntime(DockerRuntime):
-    """The real DockerRuntime, also keeping what the engine says about each container."""
-
-    def __init__(self, client: Any) -> None:
-        super().__init__(client)
-        self.inspected: list[dict[str, Any]] = []
-
-    def start(self, launch: AgentLaunch) -> AgentHandle:
-        handle = super().start(launch)
-        handle.container.reload()  # type: ignore[attr-defined]
-        self.inspected.append(handle.container.attrs)  # type: ignore[attr-defined]
-        return handle
 
 
 def _run(engine: Any, runs: Path, image: str, seed: int) -> tuple[EpisodeResult, RecordingRuntime]:

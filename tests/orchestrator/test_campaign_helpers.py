@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import secrets
 import shutil
 import socket
 import subprocess
@@ -201,15 +202,19 @@ class RayCluster:
     """A Ray cluster of real nodes on this machine (``ray start``), in a temp dir of its own.
 
     Token authentication is on (Ray 2.60's default for ``ray start --head``); nodes and
-    drivers join with ``RAY_AUTH_MODE=token``. ``stop()`` ends exactly the processes of
-    this cluster (found by its temp dir), never other Ray sessions on the machine.
+    drivers join with ``RAY_AUTH_MODE=token`` and this cluster's own token (a fresh one in
+    ``RAY_AUTH_TOKEN``: on a new machine there is no ``~/.ray/auth_token`` to fall back on,
+    and an old one must not decide whether the test passes). ``stop()`` ends exactly the
+    processes of this cluster (found by its temp dir), never other Ray sessions on the
+    machine.
     """
 
     def __init__(self) -> None:
         self.temp = short_dir("eagc-ray-")
         self.port = free_port()
         self.address = f"127.0.0.1:{self.port}"
-        self.env = {**os.environ, "RAY_AUTH_MODE": "token", "RAY_USAGE_STATS_ENABLED": "0"}
+        self.env = {**os.environ, "RAY_AUTH_MODE": "token", "RAY_USAGE_STATS_ENABLED": "0",
+                    "RAY_AUTH_TOKEN": secrets.token_hex(32)}
 
     def _start(self, *args: str) -> None:
         ray_cli = Path(sys.executable).with_name("ray")  # the ray of this interpreter

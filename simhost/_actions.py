@@ -90,13 +90,24 @@ def check_action(
     tensors: Mapping[str, np.ndarray] | None = None,
 ) -> dict[str, Any]:
     """Return the action with every field checked and converted; raise ActionError."""
-    fields = {f.name: f for f in spec}
-    merged: dict[str, Any] = dict(action)
-    for name, arr in (tensors or {}).items():
-        if name in merged:
-            raise ActionError(f"{name}: given both as JSON and as a tensor")
-        merged[name] = arr
-    unknown = sorted(set(merged) - set(fields))
-    if unknown:
-        raise ActionError(f"unknown action field(s) {unknown}; expected {sorted(fields)}")
+    return check_fields({f.name: f for f in spec}, action, tensors)
+
+
+def check_fields(
+    fields: Mapping[str, FieldSpec],
+    action: Mapping[str, Any],
+    tensors: Mapping[str, np.ndarray] | None = None,
+) -> dict[str, Any]:
+    """``check_action`` with the spec already keyed by name (the host's per-step path)."""
+    merged: Mapping[str, Any] = action
+    if tensors:
+        merged = dict(action)
+        for name, arr in tensors.items():
+            if name in merged:
+                raise ActionError(f"{name}: given both as JSON and as a tensor")
+            merged[name] = arr
+    for name in merged:
+        if name not in fields:
+            unknown = sorted(n for n in merged if n not in fields)
+            raise ActionError(f"unknown action field(s) {unknown}; expected {sorted(fields)}")
     return {name: _check_field(fields[name], value) for name, value in merged.items()}

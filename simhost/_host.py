@@ -1,16 +1,25 @@
 """``SimHost``: serves one episode of a track to one agent over Zenoh (DESIGN §3).
 
 Requests arrive on ``eagc/v1/<episode>/agent/req`` and each gets exactly one reply on
-``…/rep``. They are handled on Zenoh's callback thread (no hand-off, so a step costs one
-publish each way); ``serve()`` on the caller's thread keeps the clock: the startup budget,
-the stages' wall-clock budgets, the agent's liveliness and the caller's stop event.
+``…/rep``. One thread owns the episode: ``serve()``, on the caller's thread, blocks on the
+request channel (a Zenoh FIFO: the sample is handed from Zenoh's reader straight to this
+thread, with no Python callback in between) and handles each request to the end, world
+step and reply included. The world is only ever touched from that thread, which also
+keeps MuJoCo's GL context, bound to the thread that made it, on one thread.
+
+The clock runs beside it: a small thread that wakes the serving thread with a local tick
+(a message that never leaves this process) when something is due: a stage's budget ran
+out, the agent never started, its liveliness token went, or the caller asked to stop. The
+serving thread then checks the clock itself, so that a stage never ends in the middle of
+a request. After the episode, late requests still get one reply each ("episode_over")
+until ``close()``.
 """
 
 from __future__ import annotations
 
 import logging
 import os
-import queue
+import secrets
 import threading
 import time
 import traceback
@@ -37,11 +46,13 @@ from schemas._protocol import (
     Step,
 )
 from simhost import _transport
-from simhost._actions import ActionError, check_action
+from simhost._actions import ActionError, check_fields
 from simhost._episode import Observation, StageEnd, StageSpec, StepOutcome, TrackEpisode
 from simhost._wire import WireError, decode_request, encode
 
 log = logging.getLogger("eagc.simhost")
+
+_MATCH_WAIT_S = 2.0  # at most this long for the agent's reply subscriber before a reply
 
 
 class EpisodeRecorder:
@@ -129,24 +140,29 @@ class SimHost:
         self.recorder = recorder or EpisodeRecorder()
         self._on_stage_end = on_stage_end
         self.outcome = HostOutcome()
-        # Zenoh's callbacks only enqueue; serve() handles requests and keeps the clock on one
-        # thread, so no lock is needed and a reply is never raced by a stage ending.
-        self._inbox: queue.SimpleQueue[tuple[float, bytes] | None] = queue.SimpleQueue()
-        self._after_lock = threading.Lock()
         self._served = False  # serve() has returned
+        self._closing = False
+        self._tick = b"tick:" + secrets.token_bytes(16)  # no agent can send it
+        self._wake = threading.Event()  # wakes the clock thread early
+        self._late: threading.Thread | None = None
         self._phase = "hello"  # hello → reset → running → over
         self._seq = 0
         self._stage = -1
         self._stage_started = 0.0
         self._stage_deadline = float("inf")
         self._stage_steps = 0
+        self._stage_cap: int | None = None  # the current stage's step cap
+        self._action_fields = {f.name: f for f in episode.action_spec}
         self._pending: list[HostMessage] = []
         self._last_reply_at: float | None = None
         self._agent_lost = False
         self._session: zenoh.Session | None = None
         self._pub: Any = None
+        self._ticker: Any = None
+        self._requests: Any = None
         self._subs: list[Any] = []
         self._hello_reply: bytes | None = None
+        self._rep_checked = False
         self._t0 = time.monotonic()
 
     # ----------------------------------------------------------------- lifecycle
@@ -161,7 +177,13 @@ class SimHost:
         self._pub = self._session.declare_publisher(
             keys["rep"], congestion_control=zenoh.CongestionControl.BLOCK, express=True
         )
-        self._subs.append(self._session.declare_subscriber(keys["req"], self._on_request))
+        # Ticks go to this session's own request channel and nowhere else.
+        self._ticker = self._session.declare_publisher(
+            keys["req"], allowed_destination=zenoh.Locality.SESSION_LOCAL
+        )
+        self._requests = self._session.declare_subscriber(
+            keys["req"], zenoh.handlers.FifoChannel(256)
+        )
         self._subs.append(
             self._session.liveliness().declare_subscriber(
                 keys["alive"], self._on_liveliness, history=True
@@ -171,12 +193,20 @@ class SimHost:
         self.recorder.event(0.0, "host_open", {"episode": self.config.episode})
 
     def close(self) -> None:
-        for sub in self._subs:
+        """Stops answering and closes the session. Idempotent."""
+        self._closing = True
+        if self._late is not None:
+            self._send_tick()  # the late replier blocks on the request channel
+            self._late.join(5.0)
+            self._late = None
+        for sub in [*self._subs, self._requests]:
             try:
-                sub.undeclare()
+                if sub is not None:
+                    sub.undeclare()
             except Exception:  # noqa: BLE001 - closing must not raise
                 pass
         self._subs.clear()
+        self._requests = None
         if self._session is not None:
             self._session.close()
             self._session = None
@@ -184,46 +214,85 @@ class SimHost:
     def serve(self, stop: threading.Event | None = None, poll_s: float = 0.05) -> HostOutcome:
         """Serves requests and keeps the episode's clock until it ends; returns how it ended.
 
-        ``stop`` (set by another thread, e.g. when the container exits) ends the episode at
-        the next poll.
+        ``stop`` (set by another thread, e.g. when the container exits) ends the episode
+        within ``poll_s``.
         """
         if self._session is None:
             self.open()
         stop = stop or threading.Event()
         startup_deadline = time.monotonic() + self.config.startup_s
+        clock = threading.Thread(
+            target=self._clock, args=(stop, startup_deadline, poll_s), daemon=True,
+            name=f"clock-{self.config.episode}",
+        )
+        clock.start()
+        try:
+            while not self._check_clock(stop, startup_deadline):
+                buf = self._requests.recv().payload.to_bytes()
+                if buf != self._tick:
+                    self._serve_one(time.monotonic(), buf)
+        finally:
+            self._served = True
+            self._wake.set()
+            clock.join()
+        # From now on every request still gets one reply: the episode is over.
+        self._late = threading.Thread(
+            target=self._answer_late, daemon=True, name=f"late-{self.config.episode}"
+        )
+        self._late.start()
+        return self.outcome
+
+    # ------------------------------------------------------------------ the clock
+    def _check_clock(self, stop: threading.Event, startup_deadline: float) -> bool:
+        """On the serving thread: ends what is due; True once the episode is over."""
         while self._phase != "over":
             now = time.monotonic()
             if stop.is_set():
                 self._finish("stopped", "stopped")
-                break
-            if self._agent_lost and self.outcome.agent_seen:
+            elif self._agent_lost and self.outcome.agent_seen:
                 self._finish("agent_lost", "stopped")
-                break
-            if self._phase in ("hello", "reset") and now > startup_deadline:
+            elif self._phase in ("hello", "reset") and now > startup_deadline:
                 self._finish("startup_timeout", "stopped")
-                break
-            if self._phase == "running" and now >= self._stage_deadline:
+            elif self._phase == "running" and now >= self._stage_deadline:
                 self._advance("budget")
-                continue
+            else:
+                return False
+        return True
+
+    def _clock(self, stop: threading.Event, startup_deadline: float, poll_s: float) -> None:
+        """Beside the serving thread: ticks it when something is due. Reads, never writes,
+        the episode's state (a stale read only delays a tick by one poll)."""
+        while not self._served:
+            now = time.monotonic()
+            phase = self._phase
+            due = (
+                stop.is_set()
+                or (self._agent_lost and self.outcome.agent_seen)
+                or (phase in ("hello", "reset") and now > startup_deadline)
+                or (phase == "running" and now >= self._stage_deadline)
+            )
+            if due:
+                self._send_tick()
             wait = poll_s
-            if self._phase == "running":
+            if phase == "running" and not due:
                 wait = min(wait, max(0.0, self._stage_deadline - now))
+            self._wake.wait(wait)
+            self._wake.clear()
+
+    def _send_tick(self) -> None:
+        try:
+            self._ticker.put(self._tick)
+        except Exception:  # noqa: BLE001 - a closed session: nothing is waiting any more
+            pass
+
+    def _answer_late(self) -> None:
+        while not self._closing:
             try:
-                item = self._inbox.get(timeout=wait)
-            except queue.Empty:
-                continue
-            if item is not None:
-                self._serve_one(*item)
-        with self._after_lock:
-            self._served = True
-        while True:  # requests that came in while the episode was ending
-            try:
-                item = self._inbox.get_nowait()
-            except queue.Empty:
-                break
-            if item is not None:
+                buf = self._requests.recv().payload.to_bytes()
+            except Exception:  # noqa: BLE001 - the channel is gone: nothing to answer
+                return
+            if buf != self._tick:
                 self._pub.put(self._over_reply())
-        return self.outcome
 
     # ------------------------------------------------------------------ callbacks
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
@@ -232,14 +301,7 @@ class SimHost:
             self._agent_lost = False
         else:
             self._agent_lost = True
-        self._inbox.put(None)  # wake serve()
-
-    def _on_request(self, sample: zenoh.Sample) -> None:
-        with self._after_lock:
-            if not self._served:
-                self._inbox.put((time.monotonic(), sample.payload.to_bytes()))
-                return
-        self._pub.put(self._over_reply())  # serve() has returned: still one reply per request
+        self._wake.set()  # the clock ticks the serving thread at once
 
     def _over_reply(self) -> bytes:
         return encode(ErrorReply(seq=self._seq, code="episode_over",
@@ -254,8 +316,23 @@ class SimHost:
             log.exception("internal error while serving episode %s", self.config.episode)
             reply = self._error("internal", f"host error: {type(e).__name__}", fatal=True)
             self._finish("internal_error", "stopped")
+        if not self._rep_checked:
+            self._rep_checked = True
+            self._await_agent_subscriber()
         self._last_reply_at = time.monotonic()  # before the put: the agent may answer at once
         self._pub.put(reply)
+
+    def _await_agent_subscriber(self) -> None:
+        """Before the first reply (once): waits briefly until this session knows the agent's
+        reply subscriber. A put goes only to subscribers already known, and the agent's
+        declaration may still be on its way when its first request arrives."""
+        deadline = time.monotonic() + _MATCH_WAIT_S
+        while time.monotonic() < deadline:
+            if self._pub.matching_status.matching:
+                return
+            time.sleep(0.001)
+        log.warning("episode %s: the agent's reply subscriber is still unknown after %.0f s",
+                    self.config.episode, _MATCH_WAIT_S)
 
     # ------------------------------------------------------------------- handling
     def _error(self, code: str, message: str, *, fatal: bool = False) -> bytes:
@@ -362,7 +439,7 @@ class SimHost:
 
     def _step(self, msg: Step, tensors: Mapping[str, np.ndarray]) -> bytes:
         try:
-            action = check_action(self.episode.action_spec, msg.action, tensors)
+            action = check_fields(self._action_fields, msg.action, tensors)
         except ActionError as e:
             self.outcome.invalid_actions += 1
             return self._error("invalid_action", str(e))
@@ -387,20 +464,20 @@ class SimHost:
             self._event(str(ev.get("event", "track_event")), ev)
         if out.episode_over:
             self._finish(out.end_reason or "completed", "episode_over")
-        else:
-            cap = self._step_cap(self.stages[self._stage])
-            if cap is not None and self._stage_steps >= cap:
-                self._advance("steps")
+        elif self._stage_cap is not None and self._stage_steps >= self._stage_cap:
+            self._advance("steps")
         return self._observation(out)
 
     def _observation(self, out: StepOutcome, *, bump: bool = True) -> bytes:
         if bump:
             self._seq += 1
-        messages = tuple(self._pending) + out.messages
-        self._pending.clear()
+        messages: tuple[HostMessage, ...] = ()
+        if self._pending or out.messages:
+            messages = tuple(self._pending) + out.messages
+            self._pending.clear()
         over = self._phase == "over"
         stage = self.stages[self._stage]
-        cap = self._step_cap(stage)
+        cap = self._stage_cap
         # The hot path: a plain dict with exactly ObservationReply's fields (tests validate
         # the host's replies against the model; building the model costs more than a step).
         action = out.action
@@ -414,7 +491,7 @@ class SimHost:
             "observation": dict(out.observation.data),
             "action": None if action is None else
             {"applied": action.applied, "ok": action.ok, "reason": action.reason},
-            "messages": [m.model_dump(mode="json") for m in messages],
+            "messages": [m.model_dump(mode="json") for m in messages] if messages else [],
             "episode_over": over,
             "end_reason": self.outcome.end_reason if over else None,
         }
@@ -436,6 +513,7 @@ class SimHost:
         self._stage_started = time.monotonic()
         self._stage_deadline = self._stage_started + stage.budget_s * self.config.time_scale
         self._stage_steps = 0
+        self._stage_cap = self._step_cap(stage)
         self.outcome.stages_reached.append(stage.name)
         self._event("stage_start", {"stage": stage.name, "index": index})
         self._pending.append(

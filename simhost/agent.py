@@ -20,8 +20,7 @@ import atexit
 import os
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import zenoh
@@ -44,6 +43,9 @@ from simhost._wire import decode_observation, decode_reply, encode
 
 __all__ = ["HostError", "RemoteEnv", "TimeStep"]
 
+_MATCH_WAIT_S = 5.0  # at most this long for the host's subscriber before the first hello
+_HELLO_RESEND_S = 0.5  # then hello is resent at this interval until a reply comes
+
 
 class HostError(RuntimeError):
     """Raised when the host answers a request with an error reply."""
@@ -54,9 +56,8 @@ class HostError(RuntimeError):
         self.fatal = fatal
 
 
-@dataclass(frozen=True)
-class TimeStep:
-    """One reply: the observation and where the episode stands."""
+class TimeStep(NamedTuple):
+    """One reply: the observation and where the episode stands (a named tuple, as dm_env's)."""
 
     observation: dict[str, Any]
     stage: str
@@ -67,7 +68,7 @@ class TimeStep:
     messages: tuple[HostMessage, ...]
     episode_over: bool
     end_reason: str | None
-    seq: int = field(repr=False)
+    seq: int
 
     def message(self, type_: str) -> HostMessage | None:
         """The first host message of a type (e.g. 'instruction', 'queries'), if any."""
@@ -111,6 +112,8 @@ class RemoteEnv:
             self._keys["req"], congestion_control=zenoh.CongestionControl.BLOCK, express=True
         )
         self._seq = 0
+        self._tensors: dict[str, np.ndarray] = {}
+        self._results: dict[tuple[bool, bool, str], ActionResult] = {}
         self._closed = False
         self.spec: HelloReply | None = None
         atexit.register(self.close)
@@ -118,12 +121,15 @@ class RemoteEnv:
     # ------------------------------------------------------------------ public calls
     def hello(self, agent: str = "") -> HelloReply:
         """Opens the episode. The reply holds the observation/action specs and stages."""
-        # The first hello may be dropped while the two sessions still learn of each other's
-        # subscribers; it is resent. (Waiting for the publisher to match instead halved the
-        # startup time, but then a reply of the host was lost once in a CI run: see the notes
-        # of issue 3 before trying that again.)
+        # A put is delivered only to subscribers this session already knows of: wait
+        # (briefly) until the host's request subscriber is known, so the first hello is not
+        # lost. It is still resent until a reply comes; the host answers a resent hello
+        # with the same reply, and _call skips the duplicates.
+        deadline = time.monotonic() + _MATCH_WAIT_S
+        while not self._pub.matching_status.matching and time.monotonic() < deadline:
+            time.sleep(0.001)
         reply = self._call(Hello(seq=self._seq, protocol=PROTOCOL_VERSION, agent=agent), {},
-                           resend_every_s=1.0)
+                           resend_every_s=_HELLO_RESEND_S)
         assert isinstance(reply, HelloReply)
         self.spec = reply
         return reply
@@ -199,13 +205,17 @@ class RemoteEnv:
         buf = encode(msg, tensors)
         self._pub.put(buf)
         deadline = None if self._timeout is None else time.monotonic() + self._timeout
-        payload = self._wait(buf, deadline, resend_every_s)
-        fast = decode_observation(payload)
-        if fast is not None:  # the common case: no validation of the trusted host's reply
-            self._seq = fast[0]["seq"]
-            self._tensors = fast[1]
-            return fast[0]
-        reply, rtensors = decode_reply(payload)
+        while True:
+            payload = self._wait(buf, deadline, resend_every_s)
+            fast = decode_observation(payload)
+            if fast is not None:  # the common case: no validation of the trusted host's reply
+                self._seq = fast[0]["seq"]
+                self._tensors = fast[1]
+                return fast[0]
+            reply, rtensors = decode_reply(payload)
+            # A second answer to a resent hello: it answers nothing that is waiting now.
+            if not isinstance(reply, HelloReply) or isinstance(msg, Hello):
+                break
         if isinstance(reply, ErrorReply):
             self._seq = reply.seq
             raise HostError(reply.code, reply.message, reply.fatal)
@@ -226,7 +236,7 @@ class RemoteEnv:
             if deadline is not None and now >= deadline:
                 raise TimeoutError(f"no reply from the host within {self._timeout} s")
             if resend_at is not None and now >= resend_at:
-                # Only hello is resent: its subscription may not have reached the host yet.
+                # Only hello is resent (the host answers a resent hello with the same reply).
                 self._pub.put(buf)
                 resend_at = now + (resend_every_s or 1.0)
             # A FIFO channel has no timed wait: poll, yielding at once while a reply is
@@ -234,17 +244,27 @@ class RemoteEnv:
             time.sleep(0 if now - started < 0.005 else 0.0002)
 
     def _timestep(self, reply: dict[str, Any]) -> TimeStep:
-        obs = dict(reply.get("observation") or {})
-        obs.update(self._tensors)
+        obs = reply.get("observation") or {}
+        obs = {**obs, **self._tensors} if obs else self._tensors
         action = reply.get("action")
+        if action is not None:  # frozen models: the few distinct results are shared
+            key = (action["applied"], action["ok"], action.get("reason", ""))
+            action = self._results.get(key)
+            if action is None:
+                action = self._results[key] = ActionResult.model_construct(
+                    applied=key[0], ok=key[1], reason=key[2])
+                if len(self._results) > 256:
+                    self._results.clear()
+        messages = reply.get("messages")
         return TimeStep(
             observation=obs,
             stage=reply["stage"],
             stage_index=reply["stage_index"],
             time_left_s=reply["time_left_s"],
             steps_left=reply.get("steps_left"),
-            action=None if action is None else ActionResult.model_construct(**action),
-            messages=tuple(HostMessage.model_construct(**m) for m in reply.get("messages", ())),
+            action=action,
+            messages=tuple(HostMessage.model_construct(**m) for m in messages) if messages
+            else (),
             episode_over=reply.get("episode_over", False),
             end_reason=reply.get("end_reason"),
             seq=reply["seq"],

@@ -143,6 +143,7 @@ class SimHost:
         self._served = False  # serve() has returned
         self._closing = False
         self._tick = b"tick:" + secrets.token_bytes(16)  # no agent can send it
+        self._tick_pending = False  # a tick is on its way to the serving thread
         self._wake = threading.Event()  # wakes the clock thread early
         self._late: threading.Thread | None = None
         self._phase = "hello"  # hello → reset → running → over
@@ -229,7 +230,9 @@ class SimHost:
         try:
             while not self._check_clock(stop, startup_deadline):
                 buf = self._requests.recv().payload.to_bytes()
-                if buf != self._tick:
+                if buf == self._tick:
+                    self._tick_pending = False
+                else:
                     self._serve_one(time.monotonic(), buf)
         finally:
             self._served = True
@@ -271,7 +274,8 @@ class SimHost:
                 or (phase in ("hello", "reset") and now > startup_deadline)
                 or (phase == "running" and now >= self._stage_deadline)
             )
-            if due:
+            if due and not self._tick_pending:  # one tick in flight is enough
+                self._tick_pending = True
                 self._send_tick()
             wait = poll_s
             if phase == "running" and not due:
@@ -283,7 +287,7 @@ class SimHost:
         try:
             self._ticker.put(self._tick)
         except Exception:  # noqa: BLE001 - a closed session: nothing is waiting any more
-            pass
+            self._tick_pending = False
 
     def _answer_late(self) -> None:
         while not self._closing:

@@ -33,6 +33,7 @@ _DTYPES = {
     for name in ("float32", "float64", "int32", "int64", "uint8", "uint16", "bool")
 }
 _NAMES = {dt: name for name, dt in _DTYPES.items()}
+_ZEROS = [b"\0" * n for n in range(_ALIGN)]
 
 
 class WireError(ValueError):
@@ -70,20 +71,21 @@ def encode(
     metas: list[dict[str, Any]] = []
     blobs: list[bytes | memoryview] = []
     offset = 0
-    for name, arr in (tensors or {}).items():
-        a = arr if arr.flags.c_contiguous else np.ascontiguousarray(arr)
-        dtype = _NAMES.get(a.dtype)
-        if dtype is None:
-            raise WireError("malformed", f"tensor {name!r}: dtype {a.dtype} is not in protocol v1")
-        nbytes = a.nbytes
-        metas.append(
-            {"name": name, "dtype": dtype, "shape": a.shape, "offset": offset, "nbytes": nbytes}
-        )
-        blobs.append(memoryview(a).cast("B") if nbytes else b"")
-        pad = _pad(nbytes)
-        if pad:
-            blobs.append(b"\0" * pad)
-        offset += nbytes + pad
+    if tensors:
+        for name, arr in tensors.items():
+            dtype = _NAMES.get(arr.dtype)
+            if dtype is None:
+                raise WireError("malformed",
+                                f"tensor {name!r}: dtype {arr.dtype} is not in protocol v1")
+            a = arr if arr.flags.c_contiguous else np.ascontiguousarray(arr)
+            nbytes = a.nbytes
+            metas.append({"name": name, "dtype": dtype, "shape": a.shape, "offset": offset,
+                          "nbytes": nbytes})
+            blobs.append(memoryview(a).cast("B") if nbytes else b"")
+            pad = (-nbytes) % _ALIGN
+            if pad:
+                blobs.append(_ZEROS[pad])
+            offset += nbytes + pad
     if isinstance(message, dict):
         header = _dumps(dict(message, tensors=metas))
     elif metas:
@@ -97,24 +99,26 @@ def encode(
 
 
 def _split(buf: bytes, max_bytes: int | None) -> tuple[bytes, memoryview]:
-    if max_bytes is not None and len(buf) > max_bytes:
-        raise WireError("oversized", f"message of {len(buf)} bytes exceeds {max_bytes}")
-    if len(buf) < _FRAME.size:
-        raise WireError("malformed", f"message of {len(buf)} bytes is shorter than the frame")
+    n = len(buf)
+    if max_bytes is not None and n > max_bytes:
+        raise WireError("oversized", f"message of {n} bytes exceeds {max_bytes}")
+    if n < _FRAME.size:
+        raise WireError("malformed", f"message of {n} bytes is shorter than the frame")
     magic, hlen = _FRAME.unpack_from(buf)
     if magic != MAGIC:
         raise WireError("malformed", f"bad magic {magic!r}: not an eagc/v1 message")
-    if hlen > len(buf) - _FRAME.size:
+    end = _FRAME.size + hlen
+    if end > n:
         raise WireError("malformed", f"header length {hlen} runs past the end of the message")
-    view = memoryview(buf)
-    return bytes(view[_FRAME.size : _FRAME.size + hlen]), view[_FRAME.size + hlen :]
+    return buf[_FRAME.size : end], memoryview(buf)[end:]
 
 
 def _tensors(metas: Any, block: memoryview) -> dict[str, np.ndarray]:
     """Views of the tensors; ``metas`` are TensorMeta models or their plain dicts."""
     out: dict[str, np.ndarray] = {}
+    size = len(block)
     for m in metas:
-        if not isinstance(m, dict):
+        if type(m) is not dict:
             if not hasattr(m, "__dict__"):
                 raise WireError("malformed", f"tensor metadata {m!r} is not an object")
             m = m.__dict__
@@ -122,16 +126,17 @@ def _tensors(metas: Any, block: memoryview) -> dict[str, np.ndarray]:
         dtype = _DTYPES.get(m["dtype"])
         if dtype is None:
             raise WireError("malformed", f"tensor {name!r}: dtype {m['dtype']!r} not in v1")
-        expected = math.prod(shape) * dtype.itemsize
-        if nbytes != expected:
-            raise WireError("malformed", f"tensor {name!r}: {nbytes} bytes, shape needs {expected}")
-        if offset < 0 or offset + nbytes > len(block):
+        count = math.prod(shape)
+        if nbytes != count * dtype.itemsize:
+            raise WireError("malformed", f"tensor {name!r}: {nbytes} bytes, shape needs "
+                            f"{count * dtype.itemsize}")
+        if offset < 0 or offset + nbytes > size:
             raise WireError("malformed", f"tensor {name!r} runs past the end of the message")
         if name in out:
             raise WireError("malformed", f"tensor {name!r} appears twice")
         try:  # e.g. shape (0, 2**70): no bytes, but no such array either
-            arr = np.frombuffer(block, dtype=dtype, count=expected // dtype.itemsize, offset=offset)
-            out[name] = arr.reshape(shape)
+            arr = np.frombuffer(block, dtype=dtype, count=count, offset=offset)
+            out[name] = arr.reshape(shape) if len(shape) != 1 else arr
         except (ValueError, OverflowError) as e:
             raise WireError("malformed", f"tensor {name!r}: shape {list(shape)}: {e}") from None
     return out

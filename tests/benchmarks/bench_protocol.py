@@ -6,9 +6,13 @@
 One process each side, every pattern over a unix domain socket in one temp dir, in the same
 run: our ``RemoteEnv.step`` ↔ ``SimHost`` serving a null episode (no physics, a fixed
 observation), raw Zenoh publisher/subscriber ping-pong, raw Zenoh get/queryable, a gRPC
-bidirectional stream of raw bytes (dm_env_rpc's shape; generic handlers, no .proto) and a
-bare AF_UNIX socket with length-prefixed frames (the floor). Two payloads: a small
-observation (~64 B of float32 tensors) and a 640×480 RGB uint8 + 640×480 float32 depth one.
+bidirectional stream of raw bytes (dm_env_rpc's shape; generic handlers, no .proto), a
+bare AF_UNIX socket with length-prefixed frames (the floor), and "minimal Python step": Zenoh
+pub/sub where both sides do the least Python work a step needs (a JSON header with the
+tensors' layout built and parsed, tensor views, a seq check), with no validation, no action
+check and no episode logic (server on a FIFO channel, as ours): what any Python
+implementation of such a protocol pays. Two payloads: a small observation (~64 B of float32
+tensors) and a 640×480 RGB uint8 + 640×480 float32 depth one.
 The request is always small (one 2-vector action; raw patterns send 64 B). Raw servers send
 a ready-made bytes object; ours builds its reply every step (one copy of the tensors).
 Cases run in interleaved rounds, so load elsewhere on the machine spreads over all of them.
@@ -53,6 +57,7 @@ CASES: list[tuple[str, str, bool]] = [
     ("zpubsub", "zenoh pub/sub (callback->queue)", True),
     ("zpubsub-fifo", "zenoh pub/sub (FIFO channel)", True),
     ("zget", "zenoh get/queryable", True),
+    ("zmin", "minimal Python step over zenoh", False),
     ("grpc", "gRPC bidi stream (raw bytes)", False),
     ("unix", "bare AF_UNIX socket (floor)", False),
 ]
@@ -88,24 +93,12 @@ def _wait_forever() -> None:
 
 # ------------------------------------------------------------------------------- servers
 def serve_ours(sock: str, payload: str) -> None:
-    import numpy as np
 
     from schemas._protocol import ActionResult, FieldSpec
     from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
     from simhost._host import HostConfig, SimHost
 
-    rng = np.random.default_rng(0)
-    if payload == "small":  # 7 + 7 + 2 float32 = 64 B
-        tensors = {
-            "qpos": rng.standard_normal(7).astype(np.float32),
-            "qvel": rng.standard_normal(7).astype(np.float32),
-            "force": rng.standard_normal(2).astype(np.float32),
-        }
-    else:
-        tensors = {
-            "rgb": rng.integers(0, 256, (H, W, 3), dtype=np.uint8),
-            "depth": rng.random((H, W), dtype=np.float32),
-        }
+    tensors = _observation_tensors(payload)
     obs = Observation(tensors=tensors)
     ok = ActionResult(applied=True, ok=True)
 
@@ -175,6 +168,77 @@ def serve_zget(sock: str, payload: str) -> None:
     _ready()
     _wait_forever()
 
+
+def _min_encode(doc: dict[str, Any], tensors: dict[str, Any]) -> bytes:
+    """The least a message needs: a JSON header naming the tensors, then their bytes."""
+    import pydantic_core
+
+    metas, blobs, offset = [], [], 0
+    for name, a in tensors.items():
+        n = a.nbytes
+        metas.append({"name": name, "dtype": a.dtype.name, "shape": a.shape, "offset": offset,
+                      "nbytes": n})
+        blobs.append(memoryview(a).cast("B"))
+        if n % 8:
+            blobs.append(bytes(8 - n % 8))
+        offset += n + (-n) % 8
+    doc["tensors"] = metas
+    header = pydantic_core.to_json(doc)
+    return b"".join([_LEN.pack(len(header)), header, *blobs])
+
+
+def _min_decode(buf: bytes) -> tuple[dict[str, Any], dict[str, Any]]:
+    import numpy as np
+    import pydantic_core
+
+    (n,) = _LEN.unpack_from(buf)
+    doc = pydantic_core.from_json(buf[4 : 4 + n])
+    block = memoryview(buf)[4 + n :]
+    return doc, {
+        m["name"]: np.frombuffer(block, dtype=m["dtype"], count=m["nbytes"] // np.dtype(
+            m["dtype"]).itemsize, offset=m["offset"]).reshape(m["shape"])
+        for m in doc["tensors"]
+    }
+
+
+def _observation_tensors(payload: str) -> dict[str, Any]:
+    import numpy as np
+
+    rng = np.random.default_rng(0)
+    if payload == "small":  # 7 + 7 + 2 float32 = 64 B
+        return {
+            "qpos": rng.standard_normal(7).astype(np.float32),
+            "qvel": rng.standard_normal(7).astype(np.float32),
+            "force": rng.standard_normal(2).astype(np.float32),
+        }
+    return {
+        "rgb": rng.integers(0, 256, (H, W, 3), dtype=np.uint8),
+        "depth": rng.random((H, W), dtype=np.float32),
+    }
+
+
+def serve_zmin(sock: str, payload: str) -> None:
+    import time as _time
+
+    import zenoh
+
+    tensors = _observation_tensors(payload)
+    session = zenoh.open(_zconfig(sock, listen=True))
+    pub = session.declare_publisher(
+        "bench/pong", congestion_control=zenoh.CongestionControl.BLOCK, express=True
+    )
+    requests = session.declare_subscriber("bench/ping", zenoh.handlers.FifoChannel(64))
+    _ready()
+    seq = 0
+    while True:
+        doc, _ = _min_decode(requests.recv().payload.to_bytes())
+        if doc.get("seq", seq) == seq:
+            seq += 1
+        reply = {"kind": "observation", "seq": seq, "stage": "bench", "stage_index": 0,
+                 "time_left_s": _time.monotonic(), "steps_left": None, "observation": {},
+                 "action": {"applied": True, "ok": True, "reason": ""}, "messages": [],
+                 "episode_over": False, "end_reason": None}
+        pub.put(_min_encode(reply, tensors))
 
 _GRPC_OPTIONS = [
     ("grpc.max_send_message_length", 64 << 20),
@@ -348,6 +412,44 @@ def client_zget(sock: str, payload: str, warmup: int, n: int) -> list[int]:
         session.close()
 
 
+def client_zmin(sock: str, payload: str, warmup: int, n: int) -> list[int]:
+    import zenoh
+
+    session = zenoh.open(_zconfig(sock, listen=False))
+    try:
+        sub = session.declare_subscriber("bench/pong", zenoh.handlers.FifoChannel(64))
+        pub = session.declare_publisher(
+            "bench/ping", congestion_control=zenoh.CongestionControl.BLOCK, express=True
+        )
+        seq = [0]
+
+        def request() -> bytes:
+            return _min_encode({"kind": "step", "seq": seq[0], "action": ACTION}, {})
+
+        def recv(timeout: float) -> Any:
+            deadline = time.monotonic() + timeout
+            while True:
+                s = sub.try_recv()
+                if s is not None:
+                    seq[0] = _min_decode(s.payload.to_bytes())[0]["seq"]
+                    return s
+                if time.monotonic() > deadline:
+                    return None
+                time.sleep(0.005)
+
+        _handshake(lambda: pub.put(request()), recv)
+
+        def call() -> None:
+            pub.put(request())
+            doc, tensors = _min_decode(sub.recv().payload.to_bytes())
+            seq[0] = doc["seq"]
+            {**doc["observation"], **tensors}
+
+        return _measure(call, warmup, n)
+    finally:
+        session.close()
+
+
 def client_grpc(sock: str, payload: str, warmup: int, n: int) -> list[int]:
     import queue
 
@@ -405,6 +507,7 @@ SERVERS = {
     "zpubsub": serve_zpubsub,
     "zpubsub-fifo": serve_zpubsub,
     "zget": serve_zget,
+    "zmin": serve_zmin,
     "grpc": serve_grpc,
     "unix": serve_unix,
 }
@@ -413,6 +516,7 @@ CLIENTS = {
     "zpubsub": client_zpubsub,
     "zpubsub-fifo": lambda *a: client_zpubsub(*a, fifo=True),
     "zget": client_zget,
+    "zmin": client_zmin,
     "grpc": client_grpc,
     "unix": client_unix,
 }
@@ -551,9 +655,13 @@ def _table(results: dict[tuple[str, str], dict[str, float] | str]) -> list[str]:
             v2 = (
                 f"{'MET' if ours < gmed else 'MISSED'} ({ours / gmed:.2f}× gRPC)" if gmed else "n/a"
             )
+            floor = (
+                f"; ours ÷ minimal Python step: {ours / ok['zmin']['median']:.2f}×"
+                if "zmin" in ok else ""
+            )
             verdicts.append(
                 f"verdict [{payload}]: within 1.3× of the fastest raw Zenoh pattern: {v1}; "
-                f"faster than gRPC: {v2}"
+                f"faster than gRPC: {v2}{floor}"
             )
     lines.append("* × the median of the fastest raw Zenoh pattern for that payload")
     return [line.rstrip() for line in lines + verdicts]

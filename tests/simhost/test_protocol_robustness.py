@@ -385,3 +385,36 @@ def test_agent_that_never_says_hello_runs_out_of_startup_time(sim_host, connect)
     outcome = handle.outcome(timeout=10.0)
     assert outcome.end_reason == "startup_timeout"
     assert outcome.stages_reached == []
+
+
+# -------------------------------------------------------------------------- startup
+def test_resent_hello_is_answered_again_and_the_client_skips_the_second_reply(host_episode):
+    """A hello is resent when its reply is slow; the host answers every copy with the same
+    reply, and RemoteEnv must not take the second one for the reply to reset."""
+    from simhost.agent import RemoteEnv
+
+    env = RemoteEnv(host_episode.endpoint, host_episode.episode, timeout_s=10.0)
+    try:
+        spec = env.hello(agent="resend/1")
+        # What a resend whose first reply came late looks like on the wire (the client's
+        # own publisher: the host sees the same session send hello twice).
+        env._pub.put(encode(Hello(seq=0, agent="resend/1")))
+        ts = env.reset()
+        assert ts.stage == "explore" and ts.seq == spec.seq + 1
+        ts = env.step(GO)
+        assert ts.action is not None and ts.action.applied and ts.seq == spec.seq + 2
+    finally:
+        env.close()
+    outcome = host_episode.outcome()
+    assert sum(outcome.protocol_errors.values()) == 0, outcome.protocol_errors
+
+
+def test_stop_ends_a_served_episode_promptly(host_episode, agent):
+    agent.start()
+    serves_normally(agent)
+    host_episode.stop.set()  # e.g. the container exited; only the clock can wake serve()
+    outcome = host_episode.outcome(timeout=5.0)
+    assert outcome.end_reason == "stopped"
+    agent.timeout_s = 2.0
+    after = agent.call(Step, action=GO)  # answered by the late replier until close()
+    assert isinstance(after, ErrorReply) and after.code == "episode_over"

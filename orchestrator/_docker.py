@@ -94,19 +94,34 @@ class DockerAgent(AgentHandle):
             return True
 
     def stop(self) -> ContainerExit:
+        import docker
+
         with self._lock:
             if self._exit is not None:
                 return self._exit
             c = self.container
             killed = False
             try:
-                c.reload()
+                try:
+                    c.reload()
+                except docker.errors.NotFound:
+                    # Removed under us (the orphan reaper, an operator): how it ended is gone
+                    # with it. It did not end by itself while the episode watched.
+                    self._exit = ContainerExit(
+                        exit_code=None, killed_by_host=True, peak_memory_bytes=self.peak,
+                        log_tail="(the container was removed before its exit could be read)",
+                    )
+                    return self._exit
                 if c.attrs["State"]["Running"]:
                     value = read_peak_memory(c.id)
                     if value is not None:
                         self.peak = max(self.peak or 0, value)
-                    c.kill()
-                    killed = True
+                    try:
+                        c.kill()
+                        killed = True
+                    except docker.errors.APIError as e:  # it exited since the reload
+                        if e.status_code != 409:
+                            raise
                 c.wait(timeout=30)
                 c.reload()
                 state = c.attrs["State"]

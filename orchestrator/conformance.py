@@ -1,0 +1,353 @@
+"""The conformance suite every container runtime must pass (STYLE §4, like dm_env_rpc's
+``compliance/``).
+
+Subclass it in a test module and give it two pytest fixtures: ``runtime`` (the
+``AgentRuntime`` under test) and ``probe_image`` (what that runtime starts to run the probe
+agent, ``orchestrator/_runtime_probe.py``)::
+
+    from orchestrator.conformance import RuntimeConformance, SandboxConformance
+
+    class TestMyRuntime(SandboxConformance):      # an official runtime: the whole sandbox
+        @pytest.fixture
+        def runtime(self): return MyRuntime()
+
+        @pytest.fixture
+        def probe_image(self): return "eagc-test/runtime-probe:latest"
+
+The probe reads its orders from the input folder and writes its findings to the output
+folder, so one probe image serves every test, and the checks see the runtime from inside.
+
+``RuntimeConformance`` is what every runtime owes the episode worker: the exit code and the
+agent's last log lines come back; a hanging agent is killed on ``stop()``, which is
+idempotent; the agent's environment is the container contract; its children die with it; a
+runaway allocation ends the agent; a missing image is the agent's fault (``AgentStartError``).
+``SandboxConformance`` adds DESIGN §4 for official runtimes, checked from inside: non-root,
+no capabilities, no-new-privileges, seccomp; read-only root and input, capped ``/tmp``; no
+network; nothing of the host's environment; a pids limit that holds a fork bomb; an OOM kill
+reported as such; detached daemons gone with the agent; ``cleanup`` finds leftovers by label.
+
+``probe_build_context(folder)`` writes a Docker build context for the probe image.
+Requires pytest only to run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import shutil
+import tempfile
+import time
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar
+
+from orchestrator._collect import mount_output, unmount_output
+from orchestrator._runtime import (
+    AGENT_UID,
+    CONTAINER_INPUT,
+    CONTAINER_OUTPUT,
+    CONTAINER_SOCKET_DIR,
+    SOCKET_NAME,
+    AgentHandle,
+    AgentLaunch,
+    AgentRuntime,
+    AgentStartError,
+)
+from schemas import ContainerExit, Limits
+
+__all__ = [
+    "PROBE_SCRIPT",
+    "ProbeRun",
+    "RuntimeConformance",
+    "SandboxConformance",
+    "probe_build_context",
+]
+
+#: The probe agent's script (standard library only).
+PROBE_SCRIPT = Path(__file__).with_name("_runtime_probe.py")
+_RESULT = "probe-result.json"
+#: Environment variables a sandboxed agent may see besides the contract's: what a base image
+#: sets for itself (and ``LC_*``).
+_IMAGE_ENV = {"PATH", "HOSTNAME", "HOME", "LANG", "TERM", "PYTHONUNBUFFERED",
+              "PYTHONDONTWRITEBYTECODE", "PYTHONPATH", "VIRTUAL_ENV", "container"}
+
+
+def probe_build_context(folder: Path, base_image: str = "eagc/agent-base:latest") -> Path:
+    """Writes a build context (Dockerfile + probe) for the probe image; returns ``folder``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(PROBE_SCRIPT, folder / "probe.py")
+    (folder / "Dockerfile").write_text(
+        "# The runtime conformance probe (orchestrator/_runtime_probe.py), built offline.\n"
+        f"FROM {base_image}\n"
+        "COPY probe.py /app/probe.py\n"
+        f"USER {AGENT_UID}:{AGENT_UID}\n"
+        'CMD ["python3", "-u", "/app/probe.py"]\n'
+    )
+    return folder
+
+
+@dataclass
+class ProbeRun:
+    """One probe agent: its launch, its handle and, once stopped, how it ended."""
+
+    launch: AgentLaunch
+    handle: AgentHandle
+    exit: ContainerExit | None = None
+
+    @property
+    def output(self) -> Path:
+        return self.launch.output_dir
+
+    def found(self) -> dict[str, Any]:
+        """What the probe wrote (empty if it wrote nothing)."""
+        path = self.output / _RESULT
+        return json.loads(path.read_text()) if path.exists() else {}
+
+    def heartbeat(self, name: str) -> float | None:
+        """When the named child last touched its heartbeat file (None: never)."""
+        path = self.output / f"heartbeat-{name}"
+        return path.stat().st_mtime if path.exists() else None
+
+
+class RuntimeConformance:
+    """Checks what every agent runtime owes the episode worker.
+
+    Subclass it in a ``Test*`` class and define the fixtures ``runtime`` and ``probe_image``.
+    """
+
+    #: Limits the probes run under (small, so that the limit tests are quick).
+    limits: ClassVar[Limits] = Limits(cpus=1.0, memory_mb=128, pids=48, tmp_mb=8, log_mb=1)
+    #: How long a probe may take to do its tasks.
+    timeout_s: ClassVar[float] = 60.0
+    #: An image (or command) that does not exist for the runtime under test.
+    missing_image: ClassVar[str] = "eagc-conformance/no-such-image:never"
+
+    # ----------------------------------------------------------------------- helpers
+    @contextmanager
+    def probe(
+        self,
+        runtime: AgentRuntime,
+        image: str,
+        tasks: list[dict[str, Any]],
+        *,
+        labels: Mapping[str, str] | None = None,
+    ) -> Iterator[ProbeRun]:
+        """Starts the probe with ``tasks`` the way the episode worker starts an agent (the
+        same folders and modes); stops it and removes everything on the way out."""
+        # Short on purpose: the socket folder's path must fit a unix socket path.
+        root = Path(tempfile.mkdtemp(prefix="eagc-rt-", dir="/tmp"))
+        sock, output, inputs = root / "sock", root / "output", root / "input"
+        sock.mkdir()
+        sock.chmod(0o755)
+        inputs.mkdir()
+        (inputs / "probe.json").write_text(json.dumps({"do": tasks}))
+        inputs.chmod(0o755)
+        (inputs / "probe.json").chmod(0o644)
+        mounted = mount_output(output, self.limits.output_mb, AGENT_UID)
+        launch = AgentLaunch(
+            image=image, episode="rt" + secrets.token_hex(8), socket_dir=sock,
+            output_dir=output, input_dir=inputs, limits=self.limits,
+            labels=dict(labels or {}),
+        )
+        run: ProbeRun | None = None
+        try:
+            run = ProbeRun(launch, runtime.start(launch))
+            yield run
+        finally:
+            if run is not None and run.exit is None:
+                run.exit = run.handle.stop()
+            if mounted:
+                unmount_output(output)
+            shutil.rmtree(root, ignore_errors=True)
+
+    def run_to_end(
+        self, runtime: AgentRuntime, image: str, tasks: list[dict[str, Any]]
+    ) -> tuple[ContainerExit, dict[str, Any]]:
+        """Runs the probe until it exits by itself; returns how it ended and what it found."""
+        with self.probe(runtime, image, tasks) as run:
+            assert run.handle.wait(self.timeout_s), (
+                f"the probe did not exit within {self.timeout_s} s (tasks {tasks})")
+            run.exit = run.handle.stop()
+            return run.exit, run.found()
+
+    def await_done(self, run: ProbeRun, tasks: list[str]) -> None:
+        """Waits until the probe has done ``tasks`` (while it keeps running)."""
+        deadline = time.monotonic() + self.timeout_s
+        while run.found().get("done") != tasks:
+            assert not run.handle.wait(0.1), f"the probe exited early: {run.handle.stop()}"
+            assert time.monotonic() < deadline, f"the probe did not do {tasks}: {run.found()}"
+
+    @staticmethod
+    def _stays_still(run: ProbeRun, name: str, quiet_s: float = 1.0) -> bool:
+        """True once the named heartbeat has not moved for ``quiet_s`` (its writer is gone)."""
+        before = run.heartbeat(name)
+        time.sleep(quiet_s)
+        return run.heartbeat(name) == before
+
+    # --------------------------------------------------------------------- the checks
+    def test_exit_code_comes_back(self, runtime: AgentRuntime, probe_image: str) -> None:
+        exit_, found = self.run_to_end(runtime, probe_image, [{"task": "exit", "code": 3}])
+        assert found.get("done") == ["exit"], f"the probe never ran its tasks: {exit_}"
+        assert exit_.exit_code == 3, exit_
+        assert not exit_.killed_by_host and not exit_.oom_killed, exit_
+
+    def test_clean_exit(self, runtime: AgentRuntime, probe_image: str) -> None:
+        exit_, _ = self.run_to_end(runtime, probe_image, [{"task": "exit", "code": 0}])
+        assert exit_.exit_code == 0 and not exit_.killed_by_host, exit_
+
+    def test_log_tail_holds_the_last_lines(self, runtime: AgentRuntime, probe_image: str) -> None:
+        exit_, _ = self.run_to_end(
+            runtime, probe_image, [{"task": "print", "lines": 2000}, {"task": "exit", "code": 0}]
+        )
+        assert "probe line 1999" in exit_.log_tail, exit_.log_tail[-300:]
+        assert "probe line 0\n" not in exit_.log_tail, "the tail is not a tail"
+        assert len(exit_.log_tail) <= 4000
+
+    def test_stop_kills_a_hanging_agent(self, runtime: AgentRuntime, probe_image: str) -> None:
+        with self.probe(runtime, probe_image, [{"task": "hang"}]) as run:
+            self.await_done(run, ["hang"])
+            assert not run.handle.wait(1.0), "a hanging agent was reported as exited"
+            run.exit = run.handle.stop()
+            assert run.exit.killed_by_host, run.exit
+            assert run.exit.exit_code not in (None, 0), run.exit
+            assert run.handle.wait(5.0), "the agent still runs after stop()"
+
+    def test_stop_is_idempotent(self, runtime: AgentRuntime, probe_image: str) -> None:
+        with self.probe(runtime, probe_image, [{"task": "hang"}]) as run:
+            first = run.handle.stop()
+            assert run.handle.stop() == first
+            run.exit = first
+
+    def test_environment_is_the_contract(self, runtime: AgentRuntime, probe_image: str) -> None:
+        with self.probe(runtime, probe_image, [{"task": "report"}, {"task": "exit", "code": 0}]
+                        ) as run:
+            assert run.handle.wait(self.timeout_s)
+            found = run.found()  # read from the host's folder: the agent wrote EAGC_OUTPUT
+            episode = run.launch.episode
+        assert found, "the probe wrote nothing to its output folder"
+        env = found["report"]["env"]
+        assert env["EAGC_EPISODE"] == episode
+        assert env["EAGC_ENDPOINT"].startswith("unixsock-stream/")
+        assert env["EAGC_ENDPOINT"].endswith(f"/{SOCKET_NAME}")
+        assert "probe.json" in found["report"]["input_listing"]
+        for key in ("EAGC_OUTPUT", "EAGC_INPUT"):
+            assert env.get(key), f"{key} is not set"
+
+    def test_children_die_with_the_agent(self, runtime: AgentRuntime, probe_image: str) -> None:
+        with self.probe(runtime, probe_image,
+                        [{"task": "spawn", "name": "child"}, {"task": "hang"}]) as run:
+            self.await_done(run, ["spawn", "hang"])
+            assert not self._stays_still(run, "child", 0.5), "the child never ran"
+            run.exit = run.handle.stop()
+            assert self._stays_still(run, "child"), "a child of the agent outlived stop()"
+
+    def test_runaway_memory_ends_the_agent(self, runtime: AgentRuntime, probe_image: str) -> None:
+        exit_, found = self.run_to_end(
+            runtime, probe_image,
+            [{"task": "memory", "mb": self.limits.memory_mb * 8}, {"task": "exit", "code": 0}],
+        )
+        assert exit_.exit_code != 0, (
+            f"the probe allocated {found.get('memory_mb')} MiB under a "
+            f"{self.limits.memory_mb} MiB limit and exited cleanly")
+
+    def test_missing_image_is_the_agents_fault(self, runtime: AgentRuntime) -> None:
+        try:
+            with self.probe(runtime, self.missing_image, [{"task": "exit", "code": 0}]):
+                pass
+        except AgentStartError as e:
+            assert str(e), "AgentStartError without a reason"
+        else:
+            raise AssertionError(f"{self.missing_image!r} started, or failed without "
+                                 "AgentStartError")
+
+
+class SandboxConformance(RuntimeConformance):
+    """Adds the sandbox of DESIGN §4, checked from inside the agent (official runtimes)."""
+
+    def test_runtime_is_official(self, runtime: AgentRuntime) -> None:
+        assert runtime.official, f"{runtime.name} claims no sandbox (official=False)"
+
+    def test_identity_and_privileges(self, runtime: AgentRuntime, probe_image: str) -> None:
+        _, found = self.run_to_end(runtime, probe_image, [{"task": "report"}])
+        rep = found["report"]
+        assert rep["uid"] != 0 and rep["euid"] != 0 and rep["gid"] != 0, rep
+        status = rep["status"]
+        assert int(status["CapEff"], 16) == 0, f"capabilities left: {status}"
+        assert int(status["CapPrm"], 16) == 0, f"capabilities left: {status}"
+        assert status["NoNewPrivs"] == "1", status
+        assert status["Seccomp"] == "2", f"no seccomp filter: {status}"
+
+    def test_filesystem(self, runtime: AgentRuntime, probe_image: str) -> None:
+        _, found = self.run_to_end(
+            runtime, probe_image, [{"task": "filesystem", "tmp_mb": self.limits.tmp_mb}])
+        fs = found["filesystem"]
+        for place in ("root", "etc", "input"):
+            assert fs[place].startswith("failed"), f"the agent could write {place}: {fs}"
+        assert fs["tmp_small"] == "ok" and fs["output"] == "ok", fs
+        assert fs["tmp_past_cap"].startswith("failed"), f"/tmp is not capped: {fs}"
+
+    def test_no_network(self, runtime: AgentRuntime, probe_image: str) -> None:
+        _, found = self.run_to_end(runtime, probe_image,
+                                   [{"task": "report"}, {"task": "network"}])
+        assert found["report"]["interfaces"] in ([], ["lo"]), found["report"]["interfaces"]
+        for target, result in found["network"].items():
+            assert result is None or result.startswith("failed"), (
+                f"{target} reached from the sandbox: {result}")
+
+    def test_nothing_of_the_host_leaks(self, runtime: AgentRuntime, probe_image: str) -> None:
+        canary = "EAGC_CONFORMANCE_CANARY"
+        os.environ[canary] = secrets.token_hex(8)
+        try:
+            with self.probe(runtime, probe_image, [{"task": "report"}]) as run:
+                assert run.handle.wait(self.timeout_s)
+                rep = run.found()["report"]
+                host_root = str(run.output.parent)
+        finally:
+            value = os.environ.pop(canary)
+        env = rep["env"]
+        contract = {"EAGC_ENDPOINT", "EAGC_EPISODE", "EAGC_OUTPUT", "EAGC_INPUT"}
+        assert canary not in env
+        extra = [k for k in env
+                 if k not in contract and k not in _IMAGE_ENV and not k.startswith("LC_")]
+        assert not extra, f"variables beyond the contract and the image's own: {extra}"
+        assert env["EAGC_ENDPOINT"] == (
+            f"unixsock-stream/{CONTAINER_SOCKET_DIR}/{SOCKET_NAME}")
+        assert env["EAGC_OUTPUT"] == CONTAINER_OUTPUT and env["EAGC_INPUT"] == CONTAINER_INPUT
+        assert value not in json.dumps(rep)
+        assert host_root not in json.dumps(env), "a host path in the agent's environment"
+
+    def test_pids_limit_holds_a_fork_bomb(self, runtime: AgentRuntime, probe_image: str) -> None:
+        exit_, found = self.run_to_end(
+            runtime, probe_image, [{"task": "forks", "count": self.limits.pids * 4}])
+        assert found.get("forks") is not None, f"the probe died forking: {exit_}"
+        assert found["forks"] < self.limits.pids, (
+            f"{found['forks']} processes under a pids limit of {self.limits.pids}")
+
+    def test_oom_kill_is_reported(self, runtime: AgentRuntime, probe_image: str) -> None:
+        exit_, _ = self.run_to_end(
+            runtime, probe_image, [{"task": "memory", "mb": self.limits.memory_mb * 8}])
+        assert exit_.oom_killed, exit_
+        assert exit_.peak_memory_bytes is not None
+        assert exit_.peak_memory_bytes >= (self.limits.memory_mb << 20) * 0.9, exit_
+
+    def test_detached_daemons_die_with_the_agent(
+        self, runtime: AgentRuntime, probe_image: str
+    ) -> None:
+        tasks = [{"task": "spawn", "name": "daemon", "detached": True}, {"task": "exit", "code": 0}]
+        with self.probe(runtime, probe_image, tasks) as run:
+            assert run.handle.wait(self.timeout_s)
+            run.exit = run.handle.stop()
+            assert run.heartbeat("daemon") is not None, "the daemon never ran"
+            assert self._stays_still(run, "daemon"), "a detached daemon outlived the agent"
+
+    def test_cleanup_finds_leftovers(self, runtime: AgentRuntime, probe_image: str) -> None:
+        mark = {"campaign": "conformance-" + secrets.token_hex(4)}
+        with self.probe(runtime, probe_image, [{"task": "hang"}], labels=mark) as run:
+            removed = runtime.cleanup(mark)
+            assert len(removed) == 1, f"cleanup({mark}) removed {removed}"
+            assert run.handle.wait(10.0), "the agent still runs after cleanup()"
+            run.exit = run.handle.stop()  # the worker may still stop an agent the reaper took
+            assert runtime.cleanup(mark) == []

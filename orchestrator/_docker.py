@@ -201,7 +201,7 @@ class DockerRuntime(AgentRuntime):
                 mem_limit=f"{lim.memory_mb}m",
                 memswap_limit=f"{lim.memory_mb}m",
                 nano_cpus=int(lim.cpus * 1e9),
-                cpuset_cpus=self.cpuset,
+                cpuset_cpus=launch.cpuset or self.cpuset,
                 tmpfs={"/tmp": f"rw,nosuid,nodev,size={lim.tmp_mb}m,mode=1777"},
                 volumes=volumes,
                 environment=env,

@@ -116,10 +116,13 @@ class LocalProcessRuntime(AgentRuntime):
         )
         env["HOME"] = os.environ.get("HOME", "/tmp")
         memory = launch.limits.memory_mb * 1024 * 1024
+        cores = {int(c) for c in launch.cpuset.split(",")} if launch.cpuset else set()
 
         def limits() -> None:  # runs in the child before exec
             # Address space, not resident memory: generous, but stops a runaway process.
             resource.setrlimit(resource.RLIMIT_AS, (memory * 4, memory * 4))
+            if cores:  # the worker's thread may be pinned to the sim host's core
+                os.sched_setaffinity(0, cores)
 
         try:
             proc = subprocess.Popen(

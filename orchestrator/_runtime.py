@@ -46,6 +46,8 @@ class AgentLaunch:
     limits: Limits
     input_dir: Path | None = None
     labels: Mapping[str, str] = field(default_factory=dict)
+    #: The cores the agent runs on ("1,2"), apart from its sim host's; None: anywhere.
+    cpuset: str | None = None
 
     def environment(
         self, *, socket_dir: str, output_dir: str, input_dir: str | None

@@ -24,6 +24,7 @@ import threading
 import time
 import traceback
 from collections.abc import Mapping
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from orchestrator._collect import collect, mount_output, unmount_output
+from orchestrator._cpus import placed
 from orchestrator._runtime import (
     AGENT_UID,
     SOCKET_NAME,
@@ -187,11 +189,14 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
     infra: str | None = None
     no_start: str | None = None
     input_dir: Path | None = None
+    cores = ExitStack()  # the episode's cores, held until its host and agent are gone
     try:
         scenario = plugin.make_scenario(seed=spec.seed, split=spec.split, params=spec.params)
+        placement = cores.enter_context(placed(spec.limits.cpus, enabled=spec.limits.pin_cpus))
         recorder.write_json("/eagc/scenario", 0.0, {
             "episode": episode_id, "track": spec.track, "split": spec.split, "seed": spec.seed,
             "image": spec.image, "params": scenario.params, "limits": spec.limits.model_dump(),
+            "cpus": None if placement is None else placement.as_dict(),
         })
         staged = root / "input"
         staged.mkdir()
@@ -220,6 +225,7 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
         launch = AgentLaunch(
             image=spec.image, episode=episode_id, socket_dir=sock_dir, output_dir=output,
             input_dir=input_dir, limits=spec.limits, labels=spec.labels,
+            cpuset=None if placement is None else placement.cpuset,
         )
         try:
             handle = runtime.start(launch)
@@ -259,6 +265,7 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
                 host.episode.close()
             except Exception:  # noqa: BLE001
                 pass
+        cores.close()
 
     # ------------------------------------------------------------ files and score
     final = collect(output, max_file_bytes=spec.limits.output_file_mb << 20,

@@ -30,6 +30,11 @@ class Limits(_Spec):
         default=None, ge=1, description="Caps steps in each stage, for machine-independent tests."
     )
     startup_s: float = Field(default=120.0, gt=0, description="Time to the agent's reset.")
+    pin_cpus: bool = Field(
+        default=True,
+        description="Run the agent on cores apart from its sim host's where the machine has "
+        "enough free cores (one for the host, ceil(cpus) for the agent).",
+    )
     max_request_kb: int = Field(default=1024, ge=1)
     max_protocol_errors: int = Field(
         default=1000, ge=1, description="Protocol errors before the episode ends as a violation."

@@ -48,11 +48,13 @@ def test_sanity_episode_end_to_end(docker_engine: Any, images: dict, runs_dir: P
     host = Path(result.episode_dir or "") / "host"
     assert load_json(host / "result.json", EpisodeResult) == result
     topics: dict[str, int] = {}
+    scenario: dict[str, Any] = {}
     with open(host / "episode.mcap", "rb") as f:
         for _, channel, message in make_reader(f).iter_messages():
             topics[channel.topic] = topics.get(channel.topic, 0) + 1
             if channel.topic == "/eagc/scenario":
-                assert json.loads(message.data)["seed"] == 5
+                scenario = json.loads(message.data)
+    assert scenario["seed"] == 5
     for topic in ("/eagc/scenario", "/eagc/request", "/eagc/reply", "/eagc/event",
                   "/eagc/state_hash", "/eagc/score", "/eagc/file/explore/world_model.json"):
         assert topics.get(topic), f"MCAP has no {topic}: {sorted(topics)}"
@@ -74,6 +76,13 @@ def test_sanity_episode_end_to_end(docker_engine: Any, images: dict, runs_dir: P
     mounts = {m["Destination"]: m for m in attrs["Mounts"]}
     assert set(mounts) == {"/run/eagc", "/output"}
     assert mounts["/run/eagc"]["RW"] is False
+    # The agent's cores are apart from the sim host's (CI's two cores make one placement).
+    cpus = scenario["cpus"]
+    if len(os.sched_getaffinity(0)) >= 2:
+        assert cpus is not None and not set(cpus["host"]) & set(cpus["agent"]), cpus
+        assert hc["CpusetCpus"] == ",".join(map(str, cpus["agent"]))
+    else:
+        assert cpus is None and not hc["CpusetCpus"]
     _assert_gone(docker_engine, result, runtime)
 
 

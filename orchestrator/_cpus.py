@@ -70,6 +70,7 @@ def _try_lock(stack: ExitStack, core: int, folder: Path) -> bool:
 def _claim(placement: Placement, folder: Path) -> ExitStack | None:
     stack = ExitStack()
     try:
+        folder.mkdir(parents=True, exist_ok=True)
         for core in (*placement.host, *placement.agent):
             if not _try_lock(stack, core, folder):
                 stack.close()

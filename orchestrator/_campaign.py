@@ -354,7 +354,7 @@ class Driver:
         return progress, bar
 
     def _submit(self, key: Any, retry: int) -> None:
-        from orchestrator._fanout import EpisodeJob, submit
+        from orchestrator._fanout import EpisodeJob, code_version, submit
         from orchestrator._worker import new_episode_id
 
         pin = self.pinned[key.submission]
@@ -364,7 +364,7 @@ class Driver:
             retry=retry, episode=new_episode_id(), track=self.spec.track, image=pin.run,
             digest=pin.digest, seed=self.seeds[(key.split, key.index)], params=split.params,
             limits=self.spec.limits, runs_dir=str(self.folder), runtime=self.spec.runtime,
-            archive=self.archives.get(key.submission, []),
+            archive=self.archives.get(key.submission, []), code=code_version(),
         )
         self.pending[submit(job, self.board)] = job
 

@@ -16,6 +16,8 @@ knows what is running, where and in which process.
 from __future__ import annotations
 
 import fcntl
+import functools
+import hashlib
 import logging
 import os
 import socket
@@ -32,6 +34,27 @@ from schemas import CampaignSpec, Limits
 log = logging.getLogger("eagc.fanout")
 
 SLOT = "eagc_slot"
+_PACKAGES = ("orchestrator", "plugins", "schemas", "simhost")
+
+
+def code_root() -> Path:
+    """The folder this installation's packages live in."""
+    return Path(__file__).resolve().parents[1]
+
+
+@functools.cache
+def code_version(root: Path | None = None) -> str:
+    """A digest of this installation's eagc sources (every .py file of the four packages).
+
+    Driver and workers compare it: a node that runs other code (a half-done upgrade) could
+    score differently, so its episodes fail as infrastructure errors instead of mixing in.
+    """
+    root = root or code_root()
+    h = hashlib.sha256()
+    for package in _PACKAGES:
+        for path in sorted((root / package).rglob("*.py")):
+            h.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
 
 
 @dataclass(frozen=True)
@@ -53,6 +76,7 @@ class EpisodeJob:
     runs_dir: str
     runtime: str = "docker"
     archive: list[Any] = field(default_factory=list)  # [ObjectRef of the archive bytes]
+    code: str = ""  # the driver's code_version(); "" skips the check
 
     @property
     def labels(self) -> dict[str, str]:
@@ -142,6 +166,12 @@ def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
         board.started.remote({"submission": job.submission, "split": job.split,
                               "index": job.index, "retry": job.retry, "episode": job.episode,
                               "node": node, "host": host, "pid": pid, "at": time.time()})
+    here = code_version()
+    if job.code and job.code != here:
+        return TaskReport(node, host, pid, error=(
+            f"version skew: this worker runs eagc code {here} "
+            f"({code_root()}), the driver {job.code}; deploy the same "
+            "eagc on every node (the episode was not run)"))
     try:
         runtime = _runtime(job)
         image = job.image if job.runtime == "local" else _ensure_image(runtime.client, job)

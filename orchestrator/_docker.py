@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -77,10 +78,18 @@ class DockerAgent(AgentHandle):
         threading.Thread(target=self._sample, daemon=True, name=f"peak-{self.id[:12]}").start()
 
     def _sample(self) -> None:
-        while not self._done.wait(0.2):
-            value = read_peak_memory(self.id)
-            if value is not None:
-                self.peak = max(self.peak or 0, value)
+        # The cgroup's figure is a high-water mark, so one read while the container still
+        # runs is enough; dense at first, because a quick agent may be gone within a second.
+        started = time.monotonic()
+        while True:
+            self.checkpoint()
+            if self._done.wait(0.05 if time.monotonic() - started < 2.0 else 0.2):
+                return
+
+    def checkpoint(self) -> None:
+        value = read_peak_memory(self.id)
+        if value is not None:
+            self.peak = max(self.peak or 0, value)
 
     def wait(self, timeout: float | None) -> bool:
         import requests
@@ -113,9 +122,7 @@ class DockerAgent(AgentHandle):
                     )
                     return self._exit
                 if c.attrs["State"]["Running"]:
-                    value = read_peak_memory(c.id)
-                    if value is not None:
-                        self.peak = max(self.peak or 0, value)
+                    self.checkpoint()
                     try:
                         c.kill()
                         killed = True

@@ -45,16 +45,19 @@ class LocalAgent(AgentHandle):
         threading.Thread(target=self._sample, daemon=True).start()
 
     def _sample(self) -> None:
-        status = f"/proc/{self.proc.pid}/status"
+        started = time.monotonic()
         while self.proc.poll() is None:
-            try:
-                with open(status) as f:
-                    for line in f:
-                        if line.startswith("VmHWM:"):
-                            self.peak = max(self.peak or 0, int(line.split()[1]) * 1024)
-            except (OSError, ValueError):
-                pass
-            time.sleep(0.2)
+            self.checkpoint()
+            time.sleep(0.05 if time.monotonic() - started < 2.0 else 0.2)
+
+    def checkpoint(self) -> None:
+        try:  # VmHWM: the process's high-water mark
+            with open(f"/proc/{self.proc.pid}/status") as f:
+                for line in f:
+                    if line.startswith("VmHWM:"):
+                        self.peak = max(self.peak or 0, int(line.split()[1]) * 1024)
+        except (OSError, ValueError):
+            pass
 
     def _read(self) -> None:
         assert self.proc.stdout is not None

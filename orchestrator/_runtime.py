@@ -74,6 +74,11 @@ class AgentHandle(ABC):
     def wait(self, timeout: float | None) -> bool:
         """Waits until the agent exits; True if it has."""
 
+    def checkpoint(self) -> None:
+        """Reads what can only be read while the agent runs (its peak memory). The worker
+        calls it when the episode ends, before it gives the agent time to leave."""
+        return None  # a runtime with nothing to read
+
     @abstractmethod
     def stop(self) -> ContainerExit:
         """Kills whatever still runs, reads how it ended and releases everything.

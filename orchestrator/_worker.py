@@ -242,6 +242,7 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
 
             threading.Thread(target=watch, daemon=True, name=f"watch-{episode_id}").start()
             outcome = host.serve(stop)
+            handle.checkpoint()  # while the agent most likely still runs
             if outcome.end_reason not in ("stopped",) and not exited.is_set():
                 # Let the agent write its last files and leave on its own.
                 handle.wait(spec.exit_grace_s)

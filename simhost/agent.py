@@ -83,7 +83,9 @@ class RemoteEnv:
         episode: The opaque episode id (default ``$EAGC_EPISODE``).
         timeout_s: How long to wait for a reply before raising ``TimeoutError``
             (None, the default: as long as the host takes; the host's stage budgets and the
-            evaluator's clock bound every episode anyway).
+            evaluator's clock bound every episode anyway). The request still counts: the
+            next call first waits (as long again) for that late reply and drops it, so that
+            requests and replies stay paired.
     """
 
     def __init__(
@@ -112,6 +114,7 @@ class RemoteEnv:
             self._keys["req"], congestion_control=zenoh.CongestionControl.BLOCK, express=True
         )
         self._seq = 0
+        self._owed = 0  # replies still due to requests that timed out
         self._tensors: dict[str, np.ndarray] = {}
         self._results: dict[tuple[bool, bool, str], ActionResult] = {}
         self._closed = False
@@ -136,10 +139,13 @@ class RemoteEnv:
 
     def reset(self) -> TimeStep:
         """Starts the first stage."""
+        self._settle()
         return self._timestep(self._call(Reset(seq=self._seq), {}))
 
     def step(self, action: Mapping[str, Any]) -> TimeStep:
         """Applies one action; numpy arrays travel as binary tensors."""
+        if self._owed:
+            self._settle()
         plain: dict[str, Any] = {}
         tensors: dict[str, np.ndarray] = {}
         for k, v in action.items():
@@ -156,10 +162,12 @@ class RemoteEnv:
 
     def answer(self, answers: Mapping[str, Any]) -> TimeStep:
         """Answers the host's queries (keyed by query id)."""
+        self._settle()
         return self._timestep(self._call(Answer(seq=self._seq, answers=dict(answers)), {}))
 
     def end_stage(self, payload: Mapping[str, Any] | None = None) -> TimeStep:
         """Ends the current stage early (Track 1: the plan goes in ``payload``)."""
+        self._settle()
         return self._timestep(self._call(EndStage(seq=self._seq, payload=dict(payload or {})), {}))
 
     @property
@@ -206,7 +214,11 @@ class RemoteEnv:
         self._pub.put(buf)
         deadline = None if self._timeout is None else time.monotonic() + self._timeout
         while True:
-            payload = self._wait(buf, deadline, resend_every_s)
+            try:
+                payload = self._wait(buf, deadline, resend_every_s)
+            except TimeoutError:
+                self._owed += 1  # the host answers every request: its reply comes later
+                raise
             fast = decode_observation(payload)
             if fast is not None:  # the common case: no validation of the trusted host's reply
                 self._seq = fast[0]["seq"]
@@ -222,6 +234,17 @@ class RemoteEnv:
         self._seq = reply.seq
         self._tensors = rtensors
         return reply
+
+    def _settle(self) -> None:
+        """Takes the replies still due to requests that timed out, so that the next request
+        and its reply pair up again: the host answers every request exactly once, in order.
+        Their content is dropped (the caller already got TimeoutError); their seq is kept."""
+        while self._owed:
+            deadline = None if self._timeout is None else time.monotonic() + self._timeout
+            payload = self._wait(b"", deadline, None)  # TimeoutError: still due, still owed
+            self._owed -= 1
+            fast = decode_observation(payload)
+            self._seq = fast[0]["seq"] if fast is not None else decode_reply(payload)[0].seq
 
     def _wait(self, buf: bytes, deadline: float | None, resend_every_s: float | None) -> bytes:
         if deadline is None and resend_every_s is None:

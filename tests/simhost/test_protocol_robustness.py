@@ -418,3 +418,41 @@ def test_stop_ends_a_served_episode_promptly(host_episode, agent):
     agent.timeout_s = 2.0
     after = agent.call(Step, action=GO)  # answered by the late replier until close()
     assert isinstance(after, ErrorReply) and after.code == "episode_over"
+
+
+def test_a_timed_out_step_does_not_put_the_client_out_of_step(host_episode):
+    """With timeout_s, a slow reply raises TimeoutError; when it comes later, the next call
+    skips it instead of taking it for its own reply (which would shift every reply by one)."""
+    from simhost.agent import RemoteEnv
+
+    episode = host_episode.host.episode
+    real_step = episode.step
+    slow = [True]
+
+    def step(stage: str, action: Any) -> Any:
+        if slow[0]:
+            slow[0] = False
+            time.sleep(0.6)
+        return real_step(stage, action)
+
+    episode.step = step  # the host calls it on its serving thread
+    env = RemoteEnv(host_episode.endpoint, host_episode.episode, timeout_s=0.2)
+    try:
+        env.hello(agent="timeout/1")
+        first = env.reset()
+        with pytest.raises(TimeoutError):
+            env.step(GO)
+        for _ in range(50):  # each call waits timeout_s more for the late reply first
+            try:
+                ts = env.step(GO)  # the late reply is dropped, then this step is served
+                break
+            except TimeoutError:
+                continue
+        assert ts.seq == first.seq + 2 and ts.action is not None and ts.action.applied
+        ts2 = env.step(GO)
+        assert ts2.seq == ts.seq + 1
+    finally:
+        env.close()
+    outcome = host_episode.outcome()
+    assert sum(outcome.protocol_errors.values()) == 0, outcome.protocol_errors
+    assert outcome.steps == 3

@@ -197,8 +197,12 @@ class SimHost:
         """Stops answering and closes the session. Idempotent."""
         self._closing = True
         if self._late is not None:
-            self._send_tick()  # the late replier blocks on the request channel
-            self._late.join(5.0)
+            if self._late.is_alive():
+                # The late replier ends at this tick, after answering what is queued before
+                # it. The put waits for room in a full channel: never on this thread.
+                threading.Thread(target=self._send_tick, daemon=True,
+                                 name=f"close-{self.config.episode}").start()
+                self._late.join(5.0)
             self._late = None
         for sub in [*self._subs, self._requests]:
             try:
@@ -228,7 +232,13 @@ class SimHost:
         )
         clock.start()
         try:
-            while not self._check_clock(stop, startup_deadline):
+            while True:
+                try:
+                    if self._check_clock(stop, startup_deadline):
+                        break
+                except Exception as e:  # noqa: BLE001 - track code at a stage end, on the clock
+                    self._internal_error(e)
+                    break
                 buf = self._requests.recv().payload.to_bytes()
                 if buf == self._tick:
                     self._tick_pending = False
@@ -237,12 +247,14 @@ class SimHost:
         finally:
             self._served = True
             self._wake.set()
+            # From now on every request still gets one reply: the episode is over. The late
+            # replier starts before the clock is joined: it drains the channel, so that a
+            # tick the clock is putting into a full channel cannot block it forever.
+            self._late = threading.Thread(
+                target=self._answer_late, daemon=True, name=f"late-{self.config.episode}"
+            )
+            self._late.start()
             clock.join()
-        # From now on every request still gets one reply: the episode is over.
-        self._late = threading.Thread(
-            target=self._answer_late, daemon=True, name=f"late-{self.config.episode}"
-        )
-        self._late.start()
         return self.outcome
 
     # ------------------------------------------------------------------ the clock
@@ -290,13 +302,19 @@ class SimHost:
             self._tick_pending = False
 
     def _answer_late(self) -> None:
-        while not self._closing:
+        while True:
             try:
                 buf = self._requests.recv().payload.to_bytes()
             except Exception:  # noqa: BLE001 - the channel is gone: nothing to answer
                 return
-            if buf != self._tick:
-                self._pub.put(self._over_reply())
+            if buf == self._tick:
+                if self._closing:
+                    return
+            else:
+                try:
+                    self._pub.put(self._over_reply())
+                except Exception:  # noqa: BLE001 - the session is closing: nobody to answer
+                    return
 
     # ------------------------------------------------------------------ callbacks
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
@@ -307,19 +325,29 @@ class SimHost:
             self._agent_lost = True
         self._wake.set()  # the clock ticks the serving thread at once
 
-    def _over_reply(self) -> bytes:
-        return encode(ErrorReply(seq=self._seq, code="episode_over",
-                                 message=f"the episode is over ({self.outcome.end_reason})",
-                                 fatal=True))
+    def _over_reply(self, code: str = "episode_over", message: str | None = None) -> bytes:
+        return encode(ErrorReply(
+            seq=self._seq, code=code, fatal=True,
+            message=message or f"the episode is over ({self.outcome.end_reason})"))
+
+    def _internal_error(self, e: BaseException) -> None:
+        """A host or track bug: recorded, and the episode ends (never raises)."""
+        self.outcome.internal_error = "".join(traceback.format_exception(e))
+        log.exception("internal error while serving episode %s", self.config.episode)
+        try:
+            self._event("internal_error", {"error": f"{type(e).__name__}: {e}"})
+            self._finish("internal_error", "stopped")
+        except Exception:  # noqa: BLE001 - the stage end failed again: end without it
+            log.exception("episode %s: ending the stage failed too", self.config.episode)
+            self._phase = "over"
+            self.outcome.end_reason = "internal_error"
 
     def _serve_one(self, received: float, buf: bytes) -> None:
         try:
             reply = self._handle(buf, received)
         except Exception as e:  # noqa: BLE001 - a host bug must still answer and be recorded
-            self.outcome.internal_error = "".join(traceback.format_exception(e))
-            log.exception("internal error while serving episode %s", self.config.episode)
-            reply = self._error("internal", f"host error: {type(e).__name__}", fatal=True)
-            self._finish("internal_error", "stopped")
+            self._internal_error(e)
+            reply = self._over_reply("internal", f"host error: {type(e).__name__}")
         if not self._rep_checked:
             self._rep_checked = True
             self._await_agent_subscriber()
@@ -550,11 +578,15 @@ class SimHost:
     def _finish(self, reason: str, ended_by: StageEnd) -> None:
         if self._phase == "over":
             return
-        if self._phase == "running":
-            self._end_stage(ended_by, {})
+        # A stage whose end already began (and failed) is not ended twice.
+        running = self._phase == "running" and self._stage_name not in self.outcome.stage_ends
         self._phase = "over"
         self.outcome.end_reason = reason
-        self._event("episode_end", {"reason": reason})
+        try:
+            if running:
+                self._end_stage(ended_by, {})
+        finally:
+            self._event("episode_end", {"reason": reason})
 
     # ---------------------------------------------------------------------- utils
     def _now(self) -> float:

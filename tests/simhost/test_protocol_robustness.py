@@ -15,6 +15,7 @@ import struct
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -456,3 +457,62 @@ def test_a_timed_out_step_does_not_put_the_client_out_of_step(host_episode):
     outcome = host_episode.outcome()
     assert sum(outcome.protocol_errors.values()) == 0, outcome.protocol_errors
     assert outcome.steps == 3
+
+
+def test_a_flooding_agent_cannot_hang_the_host_at_the_end(sim_host, connect):
+    """An agent that floods requests without waiting fills the host's request channel; the
+    clock's tick then waits for room, and serve() used to join the clock with nobody left
+    to drain the channel: it never returned."""
+    from simhost._host import EpisodeRecorder
+
+    class SlowRecorder(EpisodeRecorder):  # each request costs the host 20 ms
+        def event(self, t: float, name: str, data: Any) -> None:
+            time.sleep(0.02)
+
+    handle = sim_host(max_protocol_errors=10**9)
+    handle.host.recorder = SlowRecorder()
+    agent = connect(handle)
+    agent.start()
+    stale = encode(Step(seq=agent.seq + 7, action=GO))  # each one is refused (and logged)
+    flooding, done = threading.Event(), threading.Event()
+
+    def flood() -> None:
+        flooding.set()
+        while not done.is_set():
+            agent.pub.put(stale)
+
+    flooder = threading.Thread(target=flood, daemon=True)
+    flooder.start()
+    flooding.wait()
+    time.sleep(2.0)  # the channel (256) is full long before this
+    handle.stop.set()
+    try:
+        outcome = handle.outcome(timeout=30.0)
+    finally:
+        done.set()
+        flooder.join(10.0)
+    assert outcome.end_reason == "stopped"
+    assert outcome.protocol_errors["stale"] > 0
+
+
+def test_a_failing_stage_end_still_answers_once(sim_host, connect):
+    """Track code that raises at a stage end: the request still gets one reply (internal,
+    fatal), the stage is ended once, and serve() returns with the error recorded."""
+    handle = sim_host()
+    ended: list[str] = []
+
+    def on_stage_end(stage: str, *, ended_by: str, payload: Any) -> list[Any]:
+        ended.append(ended_by)
+        raise OSError("disk full")
+
+    handle.host.episode.on_stage_end = on_stage_end
+    agent = connect(handle)
+    agent.start()
+    reply = agent.call(EndStage)
+    assert isinstance(reply, ErrorReply) and reply.code == "internal" and reply.fatal, reply
+    outcome = handle.outcome()
+    assert outcome.internal_error and "disk full" in outcome.internal_error
+    assert outcome.end_reason == "internal_error"
+    assert ended == ["agent"], ended
+    time.sleep(0.05)
+    assert agent.replies.empty(), "the host sent a reply nobody asked for"

@@ -106,7 +106,7 @@ def placed(
         return
     before = os.sched_getaffinity(0)
     folder = _lock_dir()
-    for placement in plan(sorted(before if cpus is None else cpus), agent_cpus):
+    for placement in plan(before if cpus is None else cpus, agent_cpus):
         held = _claim(placement, folder)
         if held is None:
             continue

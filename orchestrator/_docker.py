@@ -26,6 +26,7 @@ from orchestrator._runtime import (
     AgentRuntime,
     AgentStartError,
     InfraError,
+    sample_interval,
 )
 from schemas import ContainerExit
 
@@ -78,12 +79,11 @@ class DockerAgent(AgentHandle):
         threading.Thread(target=self._sample, daemon=True, name=f"peak-{self.id[:12]}").start()
 
     def _sample(self) -> None:
-        # The cgroup's figure is a high-water mark, so one read while the container still
-        # runs is enough; dense at first, because a quick agent may be gone within a second.
+        # The cgroup's figure is a high-water mark: one read while the container runs is enough.
         started = time.monotonic()
         while True:
             self.checkpoint()
-            if self._done.wait(0.05 if time.monotonic() - started < 2.0 else 0.2):
+            if self._done.wait(sample_interval(time.monotonic() - started)):
                 return
 
     def checkpoint(self) -> None:

@@ -19,7 +19,13 @@ import time
 from collections import deque
 from pathlib import Path
 
-from orchestrator._runtime import AgentHandle, AgentLaunch, AgentRuntime, AgentStartError
+from orchestrator._runtime import (
+    AgentHandle,
+    AgentLaunch,
+    AgentRuntime,
+    AgentStartError,
+    sample_interval,
+)
 from schemas import ContainerExit
 
 log = logging.getLogger("eagc.local")
@@ -48,7 +54,7 @@ class LocalAgent(AgentHandle):
         started = time.monotonic()
         while self.proc.poll() is None:
             self.checkpoint()
-            time.sleep(0.05 if time.monotonic() - started < 2.0 else 0.2)
+            time.sleep(sample_interval(time.monotonic() - started))
 
     def checkpoint(self) -> None:
         try:  # VmHWM: the process's high-water mark

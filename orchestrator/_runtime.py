@@ -22,6 +22,12 @@ AGENT_UID = 10001
 LABEL_PREFIX = "eagc"
 
 
+def sample_interval(elapsed_s: float) -> float:
+    """How long to wait before the next peak-memory sample of an agent running this long:
+    dense at first, because a quick agent may be gone within a second."""
+    return 0.05 if elapsed_s < 2.0 else 0.2
+
+
 class RuntimeErrorBase(RuntimeError):
     """Root of the runtime errors."""
 

@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from plugins.track1._types import Task, Track1Scenario
+
 SCALE, MARGIN = 48.0, 12  # as simhost.track1.render_topdown draws
 ITEM, GOAL, EXCEPTION = (220, 0, 200), (0, 170, 210), (220, 20, 20)
 STAGE_COLOURS = {"exploration": (30, 90, 220), "planning": (120, 120, 120),
@@ -54,16 +56,15 @@ class _Overlay:
                 self.disc(x0 + (x1 - x0) * t, y0 + (y1 - y0) * t, 1.6, colour)
 
 
-def _mark_task(overlay: _Overlay, layout: Any, task: dict[str, Any]) -> None:
-    first = task["object"] if task["kind"] == "place" else task["tool"]
-    second = task["receptacle"] if task["kind"] == "place" else task["target"]
-    for entity_id, colour in ((first, ITEM), (second, GOAL)):
-        e = layout.entity(entity_id)
-        if hasattr(e, "receptacle"):
-            x, y, _ = layout.item_position(e, e.receptacle, e.slot)
-        else:
-            x, y = e.pos
-        overlay.ring(x, y, colour)
+def _mark_task(overlay: _Overlay, layout: Any, task: Task) -> None:
+    for goal in task.goals:
+        for entity_id, colour in ((goal.fetched, ITEM), (goal.destination, GOAL)):
+            e = layout.entity(entity_id)
+            if hasattr(e, "receptacle"):
+                x, y, _ = layout.item_position(e, e.receptacle, e.slot)
+            else:
+                x, y = e.pos
+            overlay.ring(x, y, colour)
 
 
 def _side_by_side(left: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -81,10 +82,8 @@ def preview(seed: int, split: str, out_dir: str | Path) -> list[Path]:
     from simhost.track1 import HouseEnv, render_topdown, write_png
 
     scenario = Track1().make_scenario(seed=seed, split=split, params={})
-    from plugins.track1._scenario import house_params
-
-    env = HouseEnv(params=house_params(scenario.params["house"]), render_rgbd=True,
-                   image_size=(320, 240))
+    spec = Track1Scenario.model_validate(scenario.params)
+    env = HouseEnv(split=spec.split, render_rgbd=True, image_size=(320, 240), field_of_view=360.0)
     try:
         env.reset(seed=seed)
         x, y, _ = env.layout.start
@@ -92,7 +91,7 @@ def preview(seed: int, split: str, out_dir: str | Path) -> list[Path]:
         env.teleport_robot(x, y, math.atan2(cy - y, cx - x))  # look into the room
         obs = env.step({"primitive": 0})[0]
         top = render_topdown(env)
-        _mark_task(_Overlay(top, env.layout.extent[1]), env.layout, scenario.params["task"])
+        _mark_task(_Overlay(top, env.layout.extent[1]), env.layout, spec.task)
         picture = _side_by_side(top, np.asarray(obs["rgb"], np.uint8))
     finally:
         env.close()
@@ -126,7 +125,6 @@ def _read_mcap(path: Path) -> tuple[dict[str, Any], list[tuple[int, list[float]]
 def trajectory_png(episode_dir: str | Path) -> Path:
     """Draws an episode's robot trajectory over its house from ``host/episode.mcap``;
     writes ``host/trajectory.png`` and returns its path."""
-    from plugins.track1._scenario import house_params
     from simhost.track1 import generate_house, render_topdown, write_png
 
     host = Path(episode_dir) / "host"
@@ -136,11 +134,11 @@ def trajectory_png(episode_dir: str | Path) -> Path:
     scenario, poses, events = _read_mcap(mcap)
     if scenario.get("track") != "track1":
         raise ValueError(f"{mcap} is a {scenario.get('track')!r} episode, not track1")
-    params = scenario["params"]
-    layout = generate_house(int(scenario["seed"]), params=house_params(params["house"]))
+    spec = Track1Scenario.model_validate(scenario["params"])
+    layout = generate_house(int(scenario["seed"]), params=spec.split.params)
     img = render_topdown(layout)
     overlay = _Overlay(img, layout.extent[1])
-    _mark_task(overlay, layout, params["task"])
+    _mark_task(overlay, layout, spec.task)
     starts = sorted((t, e["stage"]) for t, e in events if e.get("event") == "stage_start")
     for k, (t0, stage) in enumerate(starts):
         t1 = starts[k + 1][0] if k + 1 < len(starts) else math.inf

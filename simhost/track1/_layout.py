@@ -13,7 +13,7 @@ import math
 from functools import cached_property
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ._catalogue import (
     AFFORDANCES,
@@ -69,6 +69,12 @@ class HouseParams(BaseModel):
     p_keep_door: float = 0.4
     """Chance to keep a door that the 2-edge-connected door graph does not need."""
     door_width: float = 1.0
+    distractors: tuple[int, int] = (0, 0)
+    """Inclusive range of look-alike objects added: each repeats the category and colour of
+    an object already placed, in another room (so "the red mug in the kitchen" still names
+    one). Zero keeps every (category, colour) unique."""
+    furniture_extra: int = Field(0, ge=0, le=3)
+    """Optional furniture pieces tried per room beyond each room type's ``optional_count``."""
     furniture: tuple[FurnitureSpec, ...] = DEFAULT_FURNITURE
     items: tuple[ItemSpec, ...] = DEFAULT_ITEMS
     room_furniture: dict[str, RoomFurniture] = DEFAULT_ROOM_FURNITURE
@@ -76,14 +82,21 @@ class HouseParams(BaseModel):
     """Room types beyond kitchen, living_room and storage, drawn without replacement."""
 
     @classmethod
-    def standard(cls) -> HouseParams:
-        """The standard split: 3-5 rooms."""
+    def dev(cls) -> HouseParams:
+        """The public dev split's houses: 3-5 rooms, every (category, colour) unique."""
         return cls()
 
     @classmethod
+    def standard(cls) -> HouseParams:
+        """The standard split's houses: 3-5 rooms, look-alike objects, more of them closed
+        away in containers."""
+        return cls(distractors=(1, 2), p_in_container=0.4, p_container_open=0.15)
+
+    @classmethod
     def challenge(cls) -> HouseParams:
-        """The challenge split: 6-8 rooms."""
-        return cls(rooms=(6, 8))
+        """The challenge split's houses: 6-8 rooms, more clutter and look-alikes."""
+        return cls(rooms=(6, 8), objects_per_room=(2, 4), distractors=(2, 4), furniture_extra=1,
+                   p_in_container=0.4, p_container_open=0.15)
 
     @model_validator(mode="after")
     def _check(self) -> HouseParams:
@@ -93,6 +106,8 @@ class HouseParams(BaseModel):
             raise ValueError(f"rooms must satisfy 3 <= lo <= hi <= {most}, got {self.rooms}")
         if not 3.0 <= self.cell_size[0] <= self.cell_size[1] <= 8.0:
             raise ValueError(f"cell_size must satisfy 3.0 <= lo <= hi <= 8.0, got {self.cell_size}")
+        if not 0 <= self.distractors[0] <= self.distractors[1] <= 8:
+            raise ValueError(f"distractors must satisfy 0 <= lo <= hi <= 8, got {self.distractors}")
         if self.tools_per_affordance < 2:
             raise ValueError("tools_per_affordance must be >= 2 (every tool needs a substitute)")
         for name in self.optional_rooms:

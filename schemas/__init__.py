@@ -6,6 +6,7 @@ regenerates them; a test fails on drift).
 """
 
 from schemas._campaign import CampaignSpec, Limits, Split, Submission
+from schemas._contract import CONTAINER, ContainerContract, unix_endpoint
 from schemas._errors import SchemaError
 from schemas._files import (
     TASK_MODEL_VERSION,
@@ -54,6 +55,7 @@ from schemas._result import (
 )
 
 __all__ = [
+    "CONTAINER",
     "PROTOCOL_VERSION",
     "TASK_MODEL_VERSION",
     "WORLD_MODEL_VERSION",
@@ -62,6 +64,7 @@ __all__ = [
     "Answer",
     "CampaignSpec",
     "Connection",
+    "ContainerContract",
     "ContainerExit",
     "ContainerState",
     "DoorState",
@@ -100,4 +103,5 @@ __all__ = [
     "load_json",
     "parse_json",
     "parse_jsonl",
+    "unix_endpoint",
 ]

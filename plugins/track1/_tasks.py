@@ -6,8 +6,8 @@ in the affordance's before-state (a dirty surface, a whole apple or bread, a dry
 inside a container). On the official splits an instruction has ``goals`` clauses (2 or 3);
 a clause may follow up on the one before: "slice the red apple with the black knife, then
 put it in the fridge in the kitchen", "clean the desk in the bedroom with the blue cloth and
-then put the cloth in the drawer in the kitchen" (a follow-up names the tool by category). The dev split keeps one clause in today's
-six templates, and states the substitute rule.
+then put the cloth in the drawer in the kitchen" (a follow-up names the tool by category).
+The dev split keeps one clause in today's six templates, and states the substitute rule.
 
 The planned exception needs a goal it can matter to: a place goal into a container that has
 a free container beside it (container unavailable), a use goal (tool substitution), a place

@@ -37,7 +37,7 @@ from plugins.track1._types import (
     Track1Scenario,
 )
 from schemas import ActionResult, FieldSpec, HostMessage
-from simhost import Observation, StepOutcome, TrackEpisode
+from simhost import Observation, Pose, StepOutcome, TrackEpisode
 
 EXPLORATION, PLANNING, EXECUTION = "exploration", "planning", "execution"
 DEADLOCK_STEPS = 30
@@ -189,6 +189,14 @@ class Track1Episode(TrackEpisode):
         """The episode's step cap for a stage (``_budgets``); None for planning."""
         return self.spec.budgets.get(stage)
 
+    def poses(self) -> Mapping[str, Pose]:
+        """The robot's true pose (organizer-only; its odometry may drift)."""
+        if not self._ready:
+            return {}
+        x, y, yaw = self.house.robot_pose
+        return {"robot": Pose(position=(x, y, 0.0),
+                              orientation=(math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)))}
+
     def on_stage_start(self, stage: str) -> tuple[HostMessage, ...]:
         if stage == EXPLORATION:
             return (HostMessage(type="notice", data={"text": (
@@ -229,7 +237,7 @@ class Track1Episode(TrackEpisode):
         x, y, _ = self.house.robot_pose
         self.exec_start = (self.steps, (x, y))
         self.gt_execution = self.env.ground_truth()
-        events += self.exception.start_execution(self)
+        events += self._reobserve(self.exception.start_execution(self))
         return tuple(events)
 
     def step(self, stage: str, action: Mapping[str, Any]) -> StepOutcome:
@@ -265,7 +273,7 @@ class Track1Episode(TrackEpisode):
             if (primitive == "noop" or not result["ok"]
                     or (primitive == "move" and moved < 0.02 and turned < 0.02)):
                 self.redundant += 1
-            events += self.exception.on_step(self, action, result)
+            events += self._reobserve(self.exception.on_step(self, action, result))
             events += self._progress()
         ok = bool(result["ok"])
         out_action = ActionResult(applied=ok, ok=ok, reason=result["reason"])
@@ -301,6 +309,12 @@ class Track1Episode(TrackEpisode):
     def perceived_ids(self) -> set[int]:
         """Ids in the agent's detections at this step."""
         return {int(d["id"]) for d in self._info.get("detections", ())}
+
+    def _reobserve(self, events: list[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
+        """After an exception was applied, the step's observation shows it."""
+        if any(e.get("event") == "exception" for e in events):
+            self._obs, self._info = self.env.observe()
+        return events
 
     def _refuse(self, reason: str) -> StepOutcome:
         return StepOutcome(observation=self.observe(),
@@ -368,8 +382,8 @@ class Track1Episode(TrackEpisode):
             now = {
                 "picked": picked,
                 "reached": reached,
-                "opened": reached and any(house.world.container_state(r) == "open"
-                                          for r in dests),
+                "opened": reached and goal.container and any(
+                    house.world.container_state(r) == "open" for r in dests),
             }
             for key in marks:
                 if marks[key] is None and (now[key] if key in now else self.goal_done(goal)):

@@ -12,24 +12,24 @@ When it happens (official splits, where exceptions show only through their effec
   else the shortest path through the task's rooms) that is farther than ``TRIGGER_DIST``
   when execution starts locks when the robot comes within ``TRIGGER_DIST`` of it. It looks
   closed until ``open`` fails with ``locked``.
-- ``object_relocation``: when the robot enters the room of the goal's object or comes
-  within ``TRIGGER_DIST`` of it, and neither the object nor the place it goes to is in
-  view, the object moves to one of the backup places (storage room furniture, shelves and
-  cabinets elsewhere; not in its room), drawn from the scenario's seed.
+- ``object_relocation``: at the step the robot enters the room of the goal's object or
+  comes within ``TRIGGER_DIST`` of it, before that step's observation, the object moves to
+  one of the backup places out of view (storage room furniture, shelves and cabinets
+  elsewhere; not in its room nor the robot's), drawn from the scenario's seed.
 - ``container_unavailable``: when the robot, holding the goal's object, comes within
   ``TRIGGER_DIST`` of the named container, the container stops working: it looks as before
   and ``open``/``place`` on it fail with ``unavailable``.
-- ``tool_substitution``: as execution starts (or at the first step after, when the tool is
-  out of view) the named tool is taken away.
+- ``tool_substitution``: as execution starts the named tool is taken away.
 
 On the dev split exceptions show themselves (a locked door shows ``locked``, an unavailable
 container ``unavailable``) and relocation and tool removal happen as execution starts (the
 object goes to the storage room).
 
-The first observable effect (for the detection window of the recovery score): an action on
-the subject fails; or, for a door that was open, the agent sees it closed; for a moved or
-removed item, the agent sees the item elsewhere or its old place, within ``EFFECT_RADIUS``,
-without it. On the dev split, seeing the subject at all counts.
+An exception applied during a step shows in that step's observation. The first observable
+effect (for the detection window of the recovery score): an action on the subject fails;
+or, for a door that was open, the agent sees it closed; for a moved or removed item, the
+agent sees the item elsewhere or its old place, within ``EFFECT_RADIUS``, without it. On
+the dev split, seeing the subject at all counts.
 """
 
 from __future__ import annotations
@@ -86,10 +86,10 @@ class ControlledException:
             self.subject, self.armed = g.receptacle, True
             return [{"event": "exception_armed", "type": kind, "container": self.subject}]
         self.subject = g.fetched
-        if not self.hidden:
-            if kind == "object_relocation":
-                return self._apply(ep, lambda: env.relocate_object(g.fetched))
+        if kind == "tool_substitution":
             return self._apply(ep, lambda: env.remove_tool(g.fetched))
+        if not self.hidden:
+            return self._apply(ep, lambda: env.relocate_object(g.fetched))
         self.armed = True
         return [{"event": "exception_armed", "type": kind, "subject": self.subject},
                 *self._trigger(ep)]
@@ -123,18 +123,15 @@ class ControlledException:
             return []
         if house.world.held == subject:
             return []  # in the robot's hand: it cannot vanish any more
-        in_view = {d.id for d in house.visible()}
-        if subject in in_view:
-            return []
         if kind == "tool_substitution":
             return self._apply(ep, lambda: env.remove_tool(subject))
         truth = env.ground_truth()
         obj = truth.object(subject)
         assert obj is not None
         here = house.robot_room
-        near = math.dist(obj.position[:2], (x, y)) <= TRIGGER_DIST
-        if here != obj.room and not near:
+        if here != obj.room and math.dist(obj.position[:2], (x, y)) > TRIGGER_DIST:
             return []
+        in_view = {d.id for d in house.visible()}
         places = [p for p in backup_places(truth, (obj.room, here)) if p not in in_view]
         rng = np.random.default_rng([self.seed, 2, ep.steps])
         for k in rng.permutation(len(places)).tolist():

@@ -174,6 +174,11 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         terminated = result.primitive == "done" and result.ok
         return self._observation(), reward, terminated, False, self._info()
 
+    def observe(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """The observation and info of the current state, without stepping (e.g. after a
+        perturbation); the sensors' draws are those of the current step."""
+        return self._observation(), self._info()
+
     def render(self) -> np.ndarray | None:  # type: ignore[override]
         """A top-down picture when ``render_mode="rgb_array"``."""
         if self.render_mode != "rgb_array":

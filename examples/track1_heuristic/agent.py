@@ -1,60 +1,38 @@
 """Track 1 heuristic map planner baseline (paper Table IV): what a team can start from.
 
-- Exploration: an occupancy grid from the range scan; goes to the nearest frontier, opens
-  closed doors with unexplored space behind them and closed containers (to see inside);
-  keeps rooms, door connectivity, door/container states and objects in a world model
-  (``model.py``), written to ``/output/world_model.json`` before the stage ends.
-- Planning: parses the instruction (the track's templates), answers the queries from the
-  model, and submits a plan: the instruction's steps, the room route and the doors its
-  breadth-first grid paths cross.
-- Execution: fetches the item, then places it or uses it on the target, re-planning as the
-  map changes. Exceptions: a locked door or an unavailable container is seen in the
-  detections; a missing item is noticed where the model put it. Each is logged
-  (``exception_detected``), the model is updated and written, and the plan adapts: a detour,
-  a search (the storage room first), a substitute container in the same room or another
-  tool with the same use.
+- Exploration: an occupancy grid from the range scan (with the odometry pose); goes to the
+  nearest frontier, opens closed doors with unexplored space behind them and closed
+  containers (to see inside); keeps rooms (read from the sign at each doorway), door
+  connectivity, door/container states and objects in a world model (``model.py``), written
+  to ``/output/world_model.json`` before the stage ends (or its step budget runs out).
+- Planning: reads the instruction into goals (``parsing.py``: rule-based decomposition of
+  the track's grammar), answers the queries it can from the model, and submits a plan: the
+  instruction's steps, the room route and the doors its breadth-first grid paths cross.
+- Execution: goal after goal, fetches the item (putting down what it holds first), then
+  places it or uses it on the target, facing what it acts on, re-planning as the map
+  changes. Exceptions show through their effects: ``open`` fails with ``locked``,
+  ``open``/``place`` fail with ``unavailable``, an item is missing where the model put it.
+  Each is logged (``exception_detected``), the model is updated and written, and the plan
+  adapts: a detour, a search (the storage room first), another container in the same room,
+  another tool with the same use.
 
-Uses only ``simhost.agent.RemoteEnv``, numpy and the standard library.
+Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), numpy and the standard
+library.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import re
 import sys
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from mapping import Grid
 from model import AFFORDANCES, Thing, WorldModel
-from skills import DoorOpener, Navigator, door_normal, facing, near, reach_radius
+from parsing import parse
+from skills import DoorOpener, Navigator, door_normal, face, facing, near, reach_radius
 
-from simhost.agent import RemoteEnv, TimeStep
-
-OUT = Path(os.environ.get("EAGC_OUTPUT", "/output"))
-ROOM_WORDS = {"living room": "living_room", "storage room": "storage"}
-
-
-def parse_instruction(text: str) -> dict[str, Any] | None:
-    """The track's instruction templates, back to names."""
-    def name(words: str) -> str:
-        return ROOM_WORDS.get(words, words.replace(" ", "_"))
-
-    m = re.match(r"(?:put|place) the (\w+) (.+?) (in|on) the (.+?) in the (.+)$", text)
-    if m:
-        return {"kind": "place", "item": (name(m[2]), m[1]), "dest": (name(m[4]), name(m[5]))}
-    m = re.match(r"(clean|slice|water) the (.+?) with the (\w+) (.+)$", text)
-    if m:
-        target = m[2]
-        where = re.match(r"(.+?) in the (.+)$", target)
-        dest = (("place", name(where[1]), name(where[2])) if where
-                else ("item", name(target.split(" ", 1)[1]), target.split(" ", 1)[0]))
-        return {"kind": "use", "item": (name(m[4]), m[3]), "target": dest,
-                "affordance": {"clean": "wipe", "slice": "cut", "water": "water"}[m[1]]}
-    return None
+from simhost.agent import OutputFiles, RemoteEnv, TimeStep
 
 
 class Agent:
@@ -62,8 +40,8 @@ class Agent:
         self.grid = Grid()
         self.model = WorldModel()
         self.nav = Navigator(self.grid, self.model)
+        self.files = OutputFiles()
         self.step = 0
-        self.log = (OUT / "episode_log.jsonl").open("a")
         self.poses: dict[int, list[tuple[float, float]]] = {}
         self.blacklist: list[tuple[float, float]] = []
         self.failed: set[int] = set()
@@ -75,35 +53,34 @@ class Agent:
         self.full: set[int] = set()
         self.exhausted = False
         self.unseen = 0
+        self.turns = 0
         self.last: dict[str, Any] | None = None
         self.seen_now: set[int] = set()
         self.pose = (0.0, 0.0, 0.0)
+        self.room, self.room_type = -1, ""
         self.held = -1
         self.collided = False
         self.instruction: dict[str, Any] | None = None
-        self.task: dict[str, Any] | None = None
+        self.goals: list[dict[str, Any]] = []
+        self.done_goals = 0
         self.queries: list[dict[str, Any]] = []
         self.reported: set[str] = set()
         self.search: list[int] = []
         self.searched = False
-        self.finished = False
 
     # ------------------------------------------------------------------ records
     def record(self, event: str, stage: str, exception_type: str | None = None,
                **data: Any) -> None:
-        rec: dict[str, Any] = {"step": self.step, "stage": stage, "event": event, "data": data}
-        if exception_type:
-            rec["exception_type"] = exception_type
-        self.log.write(json.dumps(rec) + "\n")
-        self.log.flush()
+        self.files.log(step=self.step, stage=stage, event=event, exception_type=exception_type,
+                       data=data)
 
     def report(self, kind: str, stage: str, **data: Any) -> None:
         """An exception noticed: log it, update the model file, say how the plan changes."""
-        if kind in self.reported:
+        if kind in self.reported or stage != "execution":
             return
         self.reported.add(kind)
         self.record("exception_detected", stage, exception_type=kind, **data)
-        self.model.write(OUT)
+        self.model.write(self.files)
         self.record("model_update", stage, reason=kind)
         self.record("replan", stage, reason=kind)
         self.nav.reset()
@@ -113,7 +90,9 @@ class Agent:
         obs = ts.observation
         x, y, yaw = (float(v) for v in obs["odometry"])
         self.pose = (x, y, yaw)
-        room = int(obs["room"][0])
+        if int(obs["room"][0]) >= 0:  # a sign by the doorway: the room just entered
+            self.room, self.room_type = int(obs["room"][0]), obs["room_name"]
+        room = self.room
         self.held = int(obs["held"][0])
         result = obs["action_result"]
         self.collided = bool(result.get("collided"))
@@ -123,37 +102,46 @@ class Agent:
         if self.collided:  # something the scan missed (a door's edge): block that way
             for a in np.linspace(-0.7, 0.7, 7):
                 self.grid.mark(x + 0.34 * math.cos(yaw + a), y + 0.34 * math.sin(yaw + a), 6)
-        for t in self.model.observe(self.pose, room, obs["room_name"], dets, self.step):
+        for t in self.model.observe(self.pose, room, self.room_type, dets, self.step):
             if t.kind == "door":
                 if t.state == "open":
                     self.grid.clear(*t.position, 0.45)
                 else:
                     self.grid.mark(*t.position, 6)
-                if t.state == "locked" and ts.stage == "execution":
-                    self.report("door_lock", ts.stage, door=t.id)
-            elif t.kind == "container" and t.state == "unavailable" and ts.stage == "execution":
-                self.report("container_unavailable", ts.stage, container=t.id)
         for t in self.model.moved:  # the agent moves only what it carries
-            if ts.stage == "execution" and t.id not in self.carried:
+            if t.id not in self.carried:
                 self.report("object_relocation", ts.stage, item=t.id)
         if self.held >= 0:
             self.carried.add(self.held)
         trail = self.poses.setdefault(room, [])
         if not trail or math.dist(trail[-1], (x, y)) > 0.5:
             trail.append((x, y))
-        last = self.last
-        if last is not None and last["primitive"] == "place" and result["reason"] in (
-                "receptacle_full", "unavailable"):
-            self.full.add(last["target"])
-        if last is not None and last["primitive"] == "open" and not result["ok"]:
-            opener = self.opener or self.nav.door
-            if opener is not None and opener.door.id == last["target"]:
-                opener.result(result["reason"])
+        self.failure(ts, result)
         for message in ts.messages:
-            if message.type == "instruction" and "steps" in message.data:
+            if message.type == "instruction" and "text" in message.data:
                 self.instruction = dict(message.data)
             elif message.type == "queries":
                 self.queries = list(message.data.get("queries", []))
+
+    def failure(self, ts: TimeStep, result: dict[str, Any]) -> None:
+        """What a failed action says about the world (the only sign of some exceptions)."""
+        last = self.last
+        if last is None or result.get("ok", True):
+            return
+        reason, target = result.get("reason", ""), last.get("target")
+        thing = self.model.things.get(target) if target is not None else None
+        if last["primitive"] == "place" and reason in ("receptacle_full", "unavailable"):
+            self.full.add(target)
+        if reason == "locked" and thing is not None:
+            thing.state = "locked"
+            self.report("door_lock", ts.stage, door=target)
+        if reason == "unavailable" and thing is not None and thing.kind == "container":
+            thing.state = "unavailable"
+            self.report("container_unavailable", ts.stage, container=target)
+        if last["primitive"] == "open":
+            opener = self.opener or self.nav.door
+            if opener is not None and opener.door.id == target:
+                opener.result(reason)
 
     # ------------------------------------------------------------------ exploration
     def explore(self, ts: TimeStep) -> dict[str, Any] | None:
@@ -271,14 +259,15 @@ class Agent:
             ts = env.answer(answers)
             self.record("note", ts.stage, answered=len(answers))
         text = (self.instruction or {}).get("text", "")
-        self.task = parse_instruction(text)
+        self.goals = parse(text)
         plan: dict[str, Any] = {"subgoals": list((self.instruction or {}).get("steps", []))}
-        item, dest = self.resolve()
-        if item is not None and dest is not None:
-            rooms = [self.model.last_room, self.model.room_of(item), self.model.room_of(dest)]
-            plan["route"] = self.room_route([r for r in rooms if r is not None])
-            plan["doors"] = self.route_doors(item, dest)
-        self.record("plan", ts.stage, instruction=text, task=self.task, **plan)
+        if self.goals:
+            item, dest = self.resolve(self.goals[0])
+            if item is not None and dest is not None:
+                rooms = [self.room, self.model.room_of(item), self.model.room_of(dest)]
+                plan["route"] = self.room_route([r for r in rooms if r is not None and r >= 0])
+                plan["doors"] = self.route_doors(item, dest)
+        self.record("plan", ts.stage, instruction=text, goals=self.goals, **plan)
         self.nav.reset()
         return env.end_stage({"plan": plan})
 
@@ -315,25 +304,25 @@ class Agent:
         return doors
 
     # ------------------------------------------------------------------ execution
-    def resolve(self) -> tuple[Thing | None, Thing | None]:
+    def resolve(self, goal: dict[str, Any]) -> tuple[Thing | None, Thing | None]:
         """The item to fetch and where it goes (or what it acts on), from the model."""
-        t, m = self.task, self.model
-        if t is None:
-            return None, None
-        items = m.find(*t["item"])
-        if t["kind"] == "use":
-            if not items and ("tool_substitution" in self.reported or self.exhausted):
-                # The named tool is gone (or nowhere to be found): another with the same use.
-                items = sorted((x for x in m.of_kind("tool") if not x.gone
-                                and AFFORDANCES.get(x.category) == t["affordance"]),
-                               key=lambda x: math.dist(x.position, self.pose[:2]))
-            kind, cat, where = t["target"]
-            dests = (m.find(cat, where) if kind == "item" else
-                     [x for x in m.find(cat) if m.rooms.get(m.room_of(x)) == where])
+        m = self.model
+        ref = goal["item"] if goal["kind"] == "place" else goal["tool"]
+        items = m.matches(ref)
+        if not items and ref.get("room"):
+            items = m.find(ref["category"], ref.get("colour"))
+        if goal["kind"] == "use" and not items and (
+                "tool_substitution" in self.reported or self.exhausted):
+            # The named tool is gone (or nowhere to be found): another with the same use.
+            items = [x for x in m.of_kind("tool") if not x.gone
+                     and AFFORDANCES.get(x.category) == goal["affordance"]]
+        items.sort(key=lambda x: math.dist(x.position, self.pose[:2]))
+        if self.held >= 0 and any(x.id == self.held for x in items):
+            items = [m.things[self.held]]
+        if goal["kind"] == "use":
+            dests = m.matches(goal["target"])
         else:
-            cat, room_type = t["dest"]
-            dests = [x for x in m.find(cat) if x.kind in ("furniture", "container")
-                     and m.rooms.get(m.room_of(x)) == room_type]
+            dests = [x for x in m.matches(goal["dest"]) if x.kind in ("furniture", "container")]
             if dests and dests[0].state == "unavailable":  # a container of the same room
                 room = m.room_of(dests[0])
                 dests = sorted((x for x in m.of_kind("container") if m.room_of(x) == room
@@ -342,22 +331,32 @@ class Agent:
         return (items[0] if items else None), (dests[0] if dests else None)
 
     def execute(self, ts: TimeStep) -> dict[str, Any] | None:
-        if self.finished or (ts.steps_left is not None and ts.steps_left <= 1) or self.task is None:
+        if (ts.steps_left is not None and ts.steps_left <= 1) or self.done_goals >= len(
+                self.goals):
             return None
-        item, dest = self.resolve()
+        goal = self.goals[self.done_goals]
+        item, dest = self.resolve(goal)
+        if self.held >= 0 and (item is None or self.held != item.id):
+            return self.put_down()
         if item is None or (dest is None and self.held == item.id):
             act = self.seek(ts)
             if act is not None or self.exhausted:
                 return act
             self.exhausted = True  # looked everywhere: settle for a substitute
-            item, dest = self.resolve()
+            item, dest = self.resolve(goal)
             if item is None:
                 return None
         if self.held != item.id:
             return self.fetch(item, ts)
         if dest is None:
             return self.seek(ts)
-        return self.deliver(item, dest)
+        return self.deliver(goal, item, dest)
+
+    def put_down(self) -> dict[str, Any] | None:
+        """Puts what it holds (not needed now) on the nearest surface that has room."""
+        spots = sorted((t for t in self.model.of_kind("furniture") if t.id not in self.full),
+                       key=lambda t: math.dist(t.position, self.pose[:2]))
+        return self.act_on(spots[0], "place") if spots else None
 
     def act_on(self, thing: Thing, primitive: str, **extra: Any) -> dict[str, Any] | None:
         """Goes within reach of a thing (on the side it was seen from, for an item), then
@@ -377,6 +376,11 @@ class Agent:
             else:
                 self.radius[thing.id] = radius + 0.3
             return {"primitive": "move", "move": [-0.5, 1.0]}
+        turn = face(self.pose, thing.position)
+        if turn is not None and self.turns < 4:
+            self.turns += 1  # the detector sees ahead only: face the thing first
+            return turn
+        self.turns = 0
         self.radius[thing.id] = max(0.5, radius - 0.15)
         return {"primitive": primitive, "target": thing.id, **extra}
 
@@ -435,7 +439,7 @@ class Agent:
         close = math.dist(item.position, self.pose[:2]) <= min(1.25, self.radius.get(
             item.id, reach_radius(item)) + 0.05)
         self.unseen = self.unseen + 1 if close and item.id not in self.seen_now else 0
-        if self.unseen >= 2 or (self.unseen and box is None):
+        if self.unseen >= 3 or (self.unseen >= 2 and box is None):
             self.unseen = 0
             item.gone = True
             kind = "tool_substitution" if item.kind == "tool" else "object_relocation"
@@ -445,9 +449,8 @@ class Agent:
             return self.seek(ts)
         return self.act_on(item, "pick")
 
-    def deliver(self, item: Thing, dest: Thing) -> dict[str, Any] | None:
-        assert self.task is not None
-        if self.task["kind"] == "use":
+    def deliver(self, goal: dict[str, Any], item: Thing, dest: Thing) -> dict[str, Any] | None:
+        if goal["kind"] == "use":
             return self.act_on(dest, "use", tool=item.id)
         if dest.kind == "container" and dest.state == "closed":
             return self.act_on(dest, "open")
@@ -477,6 +480,11 @@ class Agent:
             act = self.nav.go(("seek", t.id), goal, self.pose, self.collided)
             if isinstance(act, dict):
                 return act
+            turn = face(self.pose, t.position)
+            if turn is not None and self.turns < 4:
+                self.turns += 1
+                return turn
+            self.turns = 0
             self.search.pop(0)
         goal = self.next_goal()
         if goal is None:
@@ -486,7 +494,7 @@ class Agent:
 
     # ------------------------------------------------------------------ the loop
     def run(self, env: RemoteEnv) -> None:
-        env.hello(agent="eagc-track1-heuristic/1")
+        env.hello(agent="eagc-track1-heuristic/2")
         ts = env.reset()
         self.record("stage", ts.stage)
         while not ts.episode_over:
@@ -497,20 +505,29 @@ class Agent:
                 continue
             act = self.explore(ts) if ts.stage == "exploration" else self.execute(ts)
             if act is None:
-                self.model.write(OUT)
+                self.model.write(self.files)
                 if ts.stage == "exploration":
                     self.record("model_update", ts.stage, reason="exploration done")
                     ts = env.end_stage()
                     self.record("stage", ts.stage)
                     continue
                 act = {"primitive": "done"}
+            if ts.stage == "exploration" and ts.steps_left is not None and ts.steps_left <= 3:
+                self.model.write(self.files)  # the stage may end with this step
             self.step += 1
             self.last = act
             ts = env.step(act)
-            if act["primitive"] in ("place", "use") and ts.action is not None and ts.action.ok:
-                self.finished = True
+            if (ts.stage == "execution" and act["primitive"] in ("place", "use")
+                    and ts.action is not None and ts.action.ok
+                    and self.done_goals < len(self.goals)):
+                goal = self.goals[self.done_goals]
+                _item, dest = self.resolve(goal)
+                if (goal["kind"] == "use") == (act["primitive"] == "use") and (
+                        dest is not None and act["target"] == dest.id):
+                    self.done_goals += 1
+                    self.search, self.searched, self.exhausted = [], False, False
         self.perceive(ts)
-        self.model.write(OUT)
+        self.model.write(self.files)
         self.record("note", ts.stage, end=ts.end_reason)
 
 

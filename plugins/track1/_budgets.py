@@ -3,11 +3,11 @@ machine and exhaustive search does not fit (they apply besides the wall-clock bu
 
 A reference route is converted to steps as a robot drives it: ``metres / max_forward``
 forward steps, ``TURN_STEPS`` per leg to turn, ``DOOR_STEPS`` per doorway crossed (a door
-may need opening), ``look`` steps per room to look around with the split's field of view
-(``ceil((360 - fov) / 45)``), and one step per primitive of the task.
+may need opening), and one step per primitive of the task.
 
 - exploration: ``EXPLORATION_FACTOR`` × an oracle's tour of every room: the shortest walk
-  from the start through every room's centre, looking around in each.
+  from the start through every room's centre (an oracle knows the house: it needs no
+  look around); an explorer must choose what to look at.
 - execution: ``EXECUTION_FACTOR`` × the task's reference route (through the true access
   poses of what it moves and where, goal after goal), from the farthest room's centre (the
   agent may end exploration anywhere), with the planned exception's worst case included
@@ -89,13 +89,10 @@ def _actions(goals: Sequence[Goal]) -> int:
     return sum(3 if g.container else 2 for g in goals)
 
 
-def exploration_steps(layout: HouseLayout, truth: HouseTruth, field_of_view: float,
-                      max_forward: float) -> int:
+def exploration_steps(layout: HouseLayout, truth: HouseTruth, max_forward: float) -> int:
     """The exploration budget (steps)."""
-    look = math.ceil((360.0 - field_of_view) / 45.0)
     metres, doors = tour(layout, layout.start[:2], [r.centre for r in truth.rooms])
-    base = _steps(metres, len(truth.rooms), doors, look * len(truth.rooms), max_forward)
-    return math.ceil(EXPLORATION_FACTOR * base)
+    return math.ceil(EXPLORATION_FACTOR * _steps(metres, len(truth.rooms), doors, 0, max_forward))
 
 
 def _worst_case(layout: HouseLayout, truth: HouseTruth, spec: Track1Scenario,

@@ -102,7 +102,7 @@ def build_scenario(seed: int, split: str, params: Mapping[str, Any]) -> Track1Sc
                           task=task, exception=planned, queries=plan_queries(truth, rng))
     cfg = config.config
     budgets = {
-        "exploration": exploration_steps(layout, truth, cfg.field_of_view, cfg.max_forward),
+        "exploration": exploration_steps(layout, truth, cfg.max_forward),
         "execution": execution_steps(layout, truth, spec, cfg.max_forward),
     }
     return spec.model_copy(update={"budgets": budgets})

@@ -30,7 +30,10 @@ class HouseEnvConfig(BaseModel):
     scan_range: float = Field(8.0, gt=0)
     """Range of the scan (metres); a ray that hits nothing reads this."""
     sensing_range: float = Field(6.0, gt=0)
-    """Detection range (metres, horizontal)."""
+    """Detection range (metres, horizontal) of doors, furniture and containers."""
+    item_range: float | None = Field(None, gt=0)
+    """Detection range of objects and tools (small things), when shorter than
+    ``sensing_range``; None: the same."""
     field_of_view: float = Field(360.0, gt=0, le=360)
     """Detection field of view (degrees, centred straight ahead); 360 is all-round."""
     position_noise: tuple[float, float] = (0.0, 0.0)

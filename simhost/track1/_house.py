@@ -76,7 +76,8 @@ class House:
         if self._visible is None:
             cfg = self.config
             self._visible = detect(self.layout, self.world, self.sim, cfg.sensing_range,
-                                   cfg.field_of_view, reveal=cfg.reveal_exceptions)
+                                   cfg.field_of_view, reveal=cfg.reveal_exceptions,
+                                   item_range=cfg.item_range)
         return self._visible
 
     def detections(self) -> list[Detection]:

@@ -90,13 +90,13 @@ class HouseParams(BaseModel):
     def standard(cls) -> HouseParams:
         """The standard split's houses: 3-5 rooms, look-alike objects, more of them closed
         away in containers."""
-        return cls(distractors=(1, 2), p_in_container=0.4, p_container_open=0.15)
+        return cls(distractors=(1, 2), p_in_container=0.5, p_container_open=0.15)
 
     @classmethod
     def challenge(cls) -> HouseParams:
         """The challenge split's houses: 6-8 rooms, more clutter and look-alikes."""
         return cls(rooms=(6, 8), objects_per_room=(2, 4), distractors=(2, 4), furniture_extra=1,
-                   p_in_container=0.4, p_container_open=0.15)
+                   p_in_container=0.5, p_container_open=0.15)
 
     @model_validator(mode="after")
     def _check(self) -> HouseParams:

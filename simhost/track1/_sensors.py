@@ -89,11 +89,12 @@ def detect(
     field_of_view: float = 360.0,
     *,
     reveal: bool = True,
+    item_range: float | None = None,
 ) -> list[Detection]:
     """Every visible entity with its exact attributes, nearest first (ties by id).
 
     ``reveal``: whether locked doors and unavailable containers show it (else they show
-    the state they seem to be in).
+    the state they seem to be in). ``item_range``: a shorter range for objects and tools.
     """
     robot = sim.robot_pose()
     rx, ry, yaw = robot
@@ -105,7 +106,7 @@ def detect(
         if not points:
             continue
         dist = math.hypot(ex - rx, ey - ry)
-        if dist > sensing_range:
+        if dist > (item_range if item_range and isinstance(entity, Item) else sensing_range):
             continue
         dx, dy = ex - rx, ey - ry
         if half_fov < math.pi and dist > 1e-6:

@@ -7,8 +7,9 @@ sees what the evaluation shows it.
 
 - ``dev``: the public level for getting started: 3-5 rooms, exact all-round perception
   (6 m), the true room at every step, exceptions that show themselves.
-- ``standard``: 3-5 rooms with look-alike objects and more of them closed away; a robot's
-  perception: a 120-degree field of view and 5 m range, position noise growing with
+- ``standard``: 3-5 rooms with look-alike objects and more of them closed away in
+  containers; a robot's perception: a 120-degree field of view, 5 m range for doors and
+  furniture and 3 m for objects and tools (small things), position noise growing with
   distance, missed detections, some category and colour confusion, odometry drift, the room
   read from a sign on entry, exceptions that show only through their effects; egocentric
   RGB-D with instance segmentation at 96x72.
@@ -56,6 +57,7 @@ class HouseSplit(BaseModel):
 ROBOT_SENSING = HouseEnvConfig(
     field_of_view=120.0,
     sensing_range=5.0,
+    item_range=3.0,
     position_noise=(0.02, 0.03),
     miss_rate=(0.05, 0.04),
     category_confusion=0.08,

@@ -297,6 +297,17 @@ DEFAULT_ROOM_FURNITURE: dict[str, RoomFurniture] = {
     ),
 }
 
+SEMANTIC_ROOM_ITEMS: dict[str, tuple[str, ...]] = {
+    "kitchen": ("apple", "bread", "mug", "plate", "bowl", "bottle"),
+    "living_room": ("book", "plant", "mug", "bowl"),
+    "bedroom": ("book", "towel", "plant"),
+    "bathroom": ("towel", "bottle"),
+    "hallway": ("plant", "book"),
+    "storage": ("bottle", "towel", "plate"),
+}
+"""Object categories each room type tends to hold (the official splits weight them, so that
+a house is as regular as a real one and priors learned offline carry over)."""
+
 DEFAULT_OPTIONAL_ROOMS: tuple[str, ...] = ("bedroom", "bathroom", "hallway", "bedroom", "bathroom")
 """Room types added, without replacement and in a seeded order, beyond the three required
 ones (kitchen, living_room, storage)."""

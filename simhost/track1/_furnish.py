@@ -294,8 +294,16 @@ def place_items(
 
     for room in rooms:
         k = int(rng.integers(params.objects_per_room[0], params.objects_per_room[1] + 1))
+        liked = params.room_items.get(room.type, ())
+        weights = np.array([params.room_item_weight if s.category in liked else 1.0
+                            for s in objects])
         for _ in range(k):
-            for i in rng.permutation(len(objects)).tolist():
+            if liked:
+                order = rng.choice(len(objects), size=len(objects), replace=False,
+                                   p=weights / weights.sum()).tolist()
+            else:
+                order = rng.permutation(len(objects)).tolist()
+            for i in order:
                 if place(objects[i], room.id, "object"):
                     break
     for aff in AFFORDANCES:

@@ -28,6 +28,7 @@ from ._catalogue import (
     OBJECT_CATEGORIES,
     REQUIRED_ROOMS,
     ROOM_TYPES,
+    SEMANTIC_ROOM_ITEMS,
     STATES,
     TOOL_CATEGORIES,
     FurnitureSpec,
@@ -73,6 +74,10 @@ class HouseParams(BaseModel):
     """Inclusive range of look-alike objects added: each repeats the category and colour of
     an object already placed, in another room (so "the red mug in the kitchen" still names
     one). Zero keeps every (category, colour) unique."""
+    room_items: dict[str, tuple[str, ...]] = {}
+    """Object categories each room type tends to hold; each is drawn ``room_item_weight``
+    times as often as another there. Empty: every category alike (the dev split)."""
+    room_item_weight: float = Field(6.0, ge=1.0)
     furniture_extra: int = Field(0, ge=0, le=3)
     """Optional furniture pieces tried per room beyond each room type's ``optional_count``."""
     furniture: tuple[FurnitureSpec, ...] = DEFAULT_FURNITURE
@@ -90,13 +95,14 @@ class HouseParams(BaseModel):
     def standard(cls) -> HouseParams:
         """The standard split's houses: 3-5 rooms, look-alike objects, more of them closed
         away in containers."""
-        return cls(distractors=(1, 2), p_in_container=0.5, p_container_open=0.15)
+        return cls(distractors=(1, 2), p_in_container=0.5, p_container_open=0.15,
+                   room_items=SEMANTIC_ROOM_ITEMS)
 
     @classmethod
     def challenge(cls) -> HouseParams:
         """The challenge split's houses: 6-8 rooms, more clutter and look-alikes."""
         return cls(rooms=(6, 8), objects_per_room=(2, 4), distractors=(2, 4), furniture_extra=1,
-                   p_in_container=0.5, p_container_open=0.15)
+                   p_in_container=0.5, p_container_open=0.15, room_items=SEMANTIC_ROOM_ITEMS)
 
     @model_validator(mode="after")
     def _check(self) -> HouseParams:
@@ -126,6 +132,10 @@ class HouseParams(BaseModel):
             for cat in mix.required + mix.optional:
                 if cat not in placed:
                     raise ValueError(f"{room_type}: furniture {cat!r} has no FurnitureSpec")
+        for room_type, cats in self.room_items.items():
+            bad = [c for c in cats if c not in OBJECT_CATEGORIES]
+            if room_type not in ROOM_TYPES or bad:
+                raise ValueError(f"room_items[{room_type!r}]: unknown names {bad or room_type}")
         for item in self.items:
             vocab = TOOL_CATEGORIES if item.affordances else OBJECT_CATEGORIES
             if item.category not in vocab:

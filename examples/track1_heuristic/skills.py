@@ -111,6 +111,8 @@ class Navigator:
         self.backoffs = 0
         self.door: DoorOpener | None = None
         self.skip_doors: set[int] = set()
+        self.horizon = 16
+        """Path points (0.1 m apart) looked ahead for a straight line to drive."""
 
     def reset(self) -> None:
         self.key, self.path, self.door, self.fails = None, None, None, 0
@@ -176,7 +178,7 @@ class Navigator:
         if len(self.path) <= 1:  # the robot's cell is a goal cell
             self.path = None
             return "arrived"
-        move, _ = steer(pose, self.grid, self.path[1:])
+        move, _ = steer(pose, self.grid, self.path[1:], self.horizon)
         return {"primitive": "move", "move": move}
 
     def _closed_door_ahead(self, pose: Pose) -> Thing | None:

@@ -14,7 +14,8 @@ organizer API, which is public offline. From the counts it fits, with add-one sm
 - ``items_in_room``: the mean number of objects and tools per room type;
 - ``category_room``: P(room type | an item of this category), and ``category_furniture``:
   P(furniture category it rests on or in | category);
-- ``hidden``: P(an item is in a closed container | furniture category);
+- ``hidden``: P(an item is in a closed container | furniture category), and
+  ``items_on``: the mean number of items on or in a piece of each furniture category;
 - ``furniture_room``: P(room type | a piece of furniture of this category is in view).
 
 Needs the eagc simulator (``pip install eagc[sim]``); takes about a minute on one core per
@@ -50,6 +51,7 @@ def learn(houses: int) -> dict[str, np.ndarray]:
     category_room = np.ones((i, r))
     category_furniture = np.ones((i, f))
     hidden = np.ones((f, 2))
+    items_on = np.zeros((f, 2))
     furniture_room = np.ones((f, r))
     for split, env_id in enumerate(("eagc/House-v0", "eagc/HouseChallenge-v0")):
         env = gym.make(env_id, render_rgbd=False)
@@ -67,6 +69,8 @@ def learn(houses: int) -> dict[str, np.ndarray]:
             places = {p.id: p for p in (*truth.furniture, *truth.containers)}
             for p in places.values():
                 furniture_room[FURNITURE.index(p.category), kind[p.room]] += 1
+                items_on[FURNITURE.index(p.category)] += (
+                    sum(o.receptacle == p.id for o in truth.objects), 1)
             per_room = np.zeros(len(kind))
             for o in truth.objects:
                 per_room[o.room] += 1
@@ -89,6 +93,7 @@ def learn(houses: int) -> dict[str, np.ndarray]:
         "category_furniture": category_furniture / category_furniture.sum(axis=1,
                                                                           keepdims=True),
         "hidden": hidden[:, 1] / hidden.sum(axis=1),
+        "items_on": items_on[:, 0] / np.maximum(items_on[:, 1], 1),
         "furniture_room": furniture_room / furniture_room.sum(axis=1, keepdims=True),
         "houses": np.array(houses),
     }

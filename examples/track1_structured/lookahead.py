@@ -8,9 +8,11 @@ generated houses (``priors.py``), and goes where the prediction is worth the ste
   the unknown share around it), a close look at a piece of furniture seen only from afar
   (small things are detected within 3 m only: part of the expected number of things on
   it), a closed container (the expected number shut inside).
-- Execution: when the goal's item or place is not in the map, it looks where the priors say
-  an item of that category most likely is (by furniture category and room type; the
-  storage room, shelves and cabinets first for an item that vanished), then explores on.
+- Execution: when the goal's item or place is not in the map, it looks where it most likely
+  is per step of cost: a piece of furniture by the priors (furniture category and room
+  type; opening a closed container; the storage room, shelves and cabinets for an item that
+  vanished), or a room not visited yet (how much of the category's rooms are still
+  unseen).
 
 Everything else (mapping, navigation, model, instructions, exceptions) is the heuristic
 planner's (``planner.py``).
@@ -50,6 +52,9 @@ class LookaheadPlanner(MapPlanner):
         self.priors = Priors()
         self.inspected: set[int] = set()
         self.spins = 0
+        self.seek_target: tuple | None = None
+        self.seek_for: tuple[str, str | None] | None = None
+        self.vanished = False
 
     # ------------------------------------------------------------------ perception
     def perceive(self, ts: TimeStep) -> None:
@@ -200,33 +205,105 @@ class LookaheadPlanner(MapPlanner):
         return None
 
     # ------------------------------------------------------------------ execution
-    def wanted_category(self) -> str | None:
-        """The category the current goal needs next and the map does not hold."""
+    def wanted(self) -> tuple[str, str | None] | None:
+        """What the current goal needs next that the map does not hold: (category, the room
+        type the instruction names for it, if any)."""
         if self.done_goals >= len(self.goals):
             return None
         goal = self.goals[self.done_goals]
         item, _dest = self.resolve(goal)
         ref = goal["item"] if goal["kind"] == "place" else goal["tool"]
         if item is None:
-            return ref["category"]
+            return ref["category"], ref.get("room")
         target = goal["dest"] if goal["kind"] == "place" else goal["target"]
-        return target["category"]
+        return target["category"], target.get("room")
 
     def search_targets(self, backup_first: bool) -> list[int]:
-        """Furniture to look at, the most likely places for what is wanted first."""
-        category = self.wanted_category()
-        rooms = self.model.rooms
+        """Kept for the map planner's callers: the search itself is ``seek``."""
+        return []
 
-        def value(t: Thing) -> float:
-            room_type = rooms.get(self.model.room_of(t))
-            score = self.priors.where(category, t.category, room_type) if category else 0.0
-            if backup_first and (room_type == "storage" or t.category in ("shelf", "cabinet")):
-                score += 1.0  # a vanished item is in a backup place: storage first
-            if t.kind == "container" and t.state == "closed":
-                score *= 1.0 + self.priors.hidden(t.category)
-            elif t.id in self.inspected:
-                score *= 0.2  # seen close up already
-            return score / (math.dist(t.position, self.pose[:2]) / 0.5 + 5)
+    def report(self, kind: str, stage: str, **data: Any) -> None:
+        if kind == "object_relocation":
+            self.vanished = True
+        self.seek_target = None
+        super().report(kind, stage, **data)
 
-        ranked = sorted(self.model.of_kind("furniture", "container"), key=value, reverse=True)
-        return [t.id for t in ranked if value(t) > 0]
+    def place_value(self, t: Thing, category: str, room: str | None) -> float:
+        """How likely what is wanted is on or in a piece of furniture, as far as a look or
+        an opening has not ruled it out."""
+        room_type = self.model.rooms.get(self.model.room_of(t))
+        if room is not None and room_type is not None and room_type != room:
+            return 0.0
+        p = self.priors.where(category, t.category, room_type)
+        if self.vanished and (room_type == "storage" or t.category in ("shelf", "cabinet")):
+            p += 0.2  # a vanished item is in a backup place
+        if t.kind == "container" and t.state == "closed":
+            return p
+        return 0.1 * p if t.id in self.inspected else p
+
+    def unexplored_value(self, category: str, room: str | None) -> float:
+        """How likely what is wanted is in a room not visited yet."""
+        visited = set(self.model.rooms.values())
+        if room is not None:
+            return 0.0 if room in visited else 1.0
+        known = self.priors.tables["category_room"]
+        c = self.priors.items.index(category) if category in self.priors.items else None
+        if c is None:
+            return 0.3
+        seen = sum(known[c][self.priors.room_types.index(t)] for t in visited
+                   if t in self.priors.room_types)
+        return max(0.0, 1.0 - seen)
+
+    def seek(self, ts: TimeStep) -> dict[str, Any] | None:
+        """Looks where what is wanted most likely is, per step cost: known furniture by the
+        learned priors (opening closed containers), or unexplored rooms."""
+        want = self.wanted()
+        if want is None:
+            return None
+        category, room = want
+        if self.seek_target is not None and self.seek_for == want:
+            act = self.pursue_seek()
+            if act is not None:
+                return act
+        self.seek_for = want
+        options: list[tuple[float, tuple]] = []
+        for t in self.model.of_kind("furniture", "container"):
+            if t.id in self.failed:
+                continue
+            p = self.place_value(t, category, room)
+            if p > 0.01:
+                cost = math.dist(t.position, self.pose[:2]) / 0.5 + 4
+                options.append((p / cost, ("place", t.id)))
+        goal = self.next_goal()
+        if goal is not None and goal[0] in ("door", "frontier"):
+            p = self.unexplored_value(category, room)
+            where = (self.model.things[goal[1]].position if goal[0] == "door" else goal[1])
+            cost = math.dist(where, self.pose[:2]) / 0.5 + 6
+            options.append((p / cost, goal))
+        if not options:
+            return None
+        self.seek_target = max(options, key=lambda o: o[0])[1]
+        if self.seek_target[0] == "door":
+            self.opener = self.seek_target[2]
+        return self.pursue_seek()
+
+    def pursue_seek(self) -> dict[str, Any] | None:
+        """The next action toward the search target; None (and no target) once done."""
+        target = self.seek_target
+        assert target is not None
+        if target[0] in ("door", "frontier"):
+            self.goal = target
+            act = self.pursue()
+            if act is None:
+                self.set_aside(target)
+                self.seek_target = self.goal = None
+            return act
+        t = self.model.things[target[1]]
+        if t.kind == "container" and t.state == "closed":
+            act = self.act_on(t, "open")
+            if act is not None:
+                return act
+        act = self.look_at(t)
+        if act is None:
+            self.seek_target = None
+        return act

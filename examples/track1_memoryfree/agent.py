@@ -3,9 +3,12 @@ instruction, no persistent map or object memory.
 
 Every step it looks at what the detector reports now: when the thing the current goal needs
 next (the item, then where it goes or what it acts on) is in sight, it turns to it, drives
-to it avoiding obstacles in the range scan, and acts; otherwise it searches by following
-the walls on its right hand (furniture stands against walls, so this passes close to every
-surface and through every open doorway), opening closed doors ahead. A failed ``open`` or
+to it avoiding obstacles in the range scan, and acts; otherwise it goes to look closely at
+the piece of furniture in view that most likely holds it (priors learned offline on
+generated houses, ``priors.npz``, the look-ahead planner's: the policy's weights, not a
+memory), opening closed containers; with none in view it searches by following the walls on
+its right hand (furniture stands against walls, so this passes close to every surface and
+through every open doorway), opening closed doors ahead. A failed ``open`` or
 ``place`` that says ``locked`` or ``unavailable`` is logged as an exception. During
 exploration it follows the walls and reports every sighting to ``world_model.json`` (a
 write-only report: it never reads it back). Between steps it keeps only what a reactive policy
@@ -24,6 +27,7 @@ from typing import Any
 
 import numpy as np
 from parsing import AFFORDANCES, parse
+from priors import Priors
 
 from simhost.agent import OutputFiles, RemoteEnv, TimeStep
 
@@ -32,11 +36,14 @@ SIZES = {"table": 0.5, "counter": 0.55, "shelf": 0.4, "bed": 0.9, "desk": 0.45, 
          "cabinet": 0.4, "drawer": 0.4, "fridge": 0.45, "bin": 0.3}
 PATIENCE = 150
 ROOM_PATIENCE = 40
+CLOSE = 2.2
+"""Closer than this, what rests on a piece of furniture would be in sight."""
 
 
 class Agent:
     def __init__(self, seed: int = 1) -> None:
         self.rng = np.random.default_rng(seed)
+        self.priors = Priors()
         self.files = OutputFiles()
         self.step = 0
         self.exec_steps = 0
@@ -201,6 +208,34 @@ class Agent:
         targets = [d for d in dets if self.fits(d, goal["target"])]
         return (targets[0] if targets else None), "use", {"tool": held}
 
+    def promising(self, obs: dict, dets: list[dict]) -> dict | None:
+        """The piece of furniture in view most likely to hold what is wanted (learned priors
+        over furniture category and this room's type), among those ahead and not yet close
+        (close up, what is on it would be in sight)."""
+        category, room = self.wanted_now(obs)
+        if room is not None and self.room_type and self.room_type != room:
+            return None
+        best, best_p = None, 0.04
+        for d in dets:
+            if d["kind"] not in ("furniture", "container") or abs(d["bearing"]) > 1.0:
+                continue
+            if d["dist"] < (1.2 if d["kind"] == "container" and d["state"] == "closed"
+                            else CLOSE):
+                continue
+            p = self.priors.where(category, d["category"], self.room_type or None)
+            if p / (1 + d["dist"] / 3) > best_p:
+                best, best_p = d, p / (1 + d["dist"] / 3)
+        return best
+
+    def wanted_now(self, obs: dict) -> tuple[str, str | None]:
+        """The category needed next and the room the instruction names for it."""
+        goal = self.goals[self.current]
+        if int(obs["held"][0]) < 0:
+            ref = goal["item"] if goal["kind"] == "place" else goal["tool"]
+        else:
+            ref = goal["dest"] if goal["kind"] == "place" else goal["target"]
+        return ref["category"], ref.get("room")
+
     def act(self, obs: dict, dets: list[dict], stage: str) -> dict[str, Any]:
         if self.drop and int(obs["held"][0]) >= 0:  # the tool just used is not needed now
             spots = [d for d in dets if d["kind"] == "furniture"]
@@ -209,6 +244,13 @@ class Agent:
         else:
             self.drop = False
             thing, primitive, extra = self.wanted(obs, dets)
+        if thing is None and not int(obs["collided"][0]):
+            place = self.promising(obs, dets)
+            if place is not None:  # go and look at it from close up
+                if place["kind"] == "container" and place["state"] == "closed":
+                    if place["dist"] <= SIZES.get(place["category"], 0.5) + 0.55:
+                        return {"primitive": "open", "target": place["id"]}
+                return self.toward(obs, place["bearing"], place["dist"])
         if thing is None or int(obs["collided"][0]):
             return self.wander(obs, dets, self.room_wanted(obs))
         if self.stuck >= 3:  # the way to it is blocked: search on

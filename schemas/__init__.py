@@ -6,6 +6,7 @@ regenerates them; a test fails on drift).
 """
 
 from schemas._campaign import CampaignSpec, Limits, Split, Submission
+from schemas._demo import DEMO_VERSION, Annotation, ArraySpec, DemoManifest, FrameSpec, KeyStage
 from schemas._errors import SchemaError
 from schemas._files import (
     TASK_MODEL_VERSION,
@@ -54,16 +55,20 @@ from schemas._result import (
 )
 
 __all__ = [
+    "DEMO_VERSION",
     "PROTOCOL_VERSION",
     "TASK_MODEL_VERSION",
     "WORLD_MODEL_VERSION",
     "ActionResult",
     "Affordance",
+    "Annotation",
     "Answer",
+    "ArraySpec",
     "CampaignSpec",
     "Connection",
     "ContainerExit",
     "ContainerState",
+    "DemoManifest",
     "DoorState",
     "EndStage",
     "EpisodeResult",
@@ -73,9 +78,11 @@ __all__ = [
     "FailureReport",
     "FieldSpec",
     "FileCheck",
+    "FrameSpec",
     "Hello",
     "HelloReply",
     "HostMessage",
+    "KeyStage",
     "Limits",
     "LogRecord",
     "NamedItem",

@@ -54,12 +54,12 @@ from gymnasium import spaces
 
 from ._bench import (
     CONTROL_HZ,
-    PART_FIELDS,
     DPOS_MAX,
     DYAW_MAX,
     HOME,
     LEAD_POS,
     LEAD_YAW,
+    PART_FIELDS,
     SUBSTEPS,
     WIDTH_MAX,
     WORKSPACE_HI,

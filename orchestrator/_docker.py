@@ -16,10 +16,6 @@ from pathlib import Path
 from typing import Any
 
 from orchestrator._runtime import (
-    AGENT_UID,
-    CONTAINER_INPUT,
-    CONTAINER_OUTPUT,
-    CONTAINER_SOCKET_DIR,
     LABEL_PREFIX,
     AgentHandle,
     AgentLaunch,
@@ -28,7 +24,7 @@ from orchestrator._runtime import (
     InfraError,
     sample_interval,
 )
-from schemas import ContainerExit
+from schemas import CONTAINER, ContainerExit
 
 log = logging.getLogger("eagc.docker")
 
@@ -169,15 +165,15 @@ class DockerRuntime(AgentRuntime):
 
         lim = launch.limits
         volumes = {
-            str(launch.socket_dir): {"bind": CONTAINER_SOCKET_DIR, "mode": "ro"},
-            str(launch.output_dir): {"bind": CONTAINER_OUTPUT, "mode": "rw"},
+            str(launch.socket_dir): {"bind": CONTAINER.socket_dir, "mode": "ro"},
+            str(launch.output_dir): {"bind": CONTAINER.output_dir, "mode": "rw"},
         }
         if launch.input_dir is not None:
-            volumes[str(launch.input_dir)] = {"bind": CONTAINER_INPUT, "mode": "ro"}
+            volumes[str(launch.input_dir)] = {"bind": CONTAINER.input_dir, "mode": "ro"}
         env = launch.environment(
-            socket_dir=CONTAINER_SOCKET_DIR,
-            output_dir=CONTAINER_OUTPUT,
-            input_dir=CONTAINER_INPUT if launch.input_dir is not None else None,
+            socket_dir=CONTAINER.socket_dir,
+            output_dir=CONTAINER.output_dir,
+            input_dir=CONTAINER.input_dir if launch.input_dir is not None else None,
         )
         labels = {f"{LABEL_PREFIX}.managed": "true", f"{LABEL_PREFIX}.episode": launch.episode}
         labels.update({f"{LABEL_PREFIX}.{k}": str(v) for k, v in launch.labels.items()})
@@ -201,7 +197,7 @@ class DockerRuntime(AgentRuntime):
                 name=f"eagc-{launch.episode}",
                 network_mode="none",
                 read_only=True,
-                user=f"{AGENT_UID}:{AGENT_UID}",
+                user=f"{CONTAINER.uid}:{CONTAINER.uid}",
                 cap_drop=["ALL"],
                 security_opt=["no-new-privileges"],
                 pids_limit=lim.pids,

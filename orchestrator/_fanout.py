@@ -181,7 +181,7 @@ def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
             limits = limits.model_copy(update={"gpus": tuple(str(g) for g in gpu_ids)})
         spec = EpisodeSpec(track=job.track, image=image, seed=job.seed, split=job.split,
                            params=dict(job.params), limits=limits, runs_dir=Path(job.runs_dir),
-                           labels=job.labels, episode=job.episode)
+                           labels=job.labels, episode=job.episode, index=job.index)
         result = run_episode(spec, runtime)
     except Exception as e:  # noqa: BLE001 - an infrastructure failure, retried by the driver
         return TaskReport(node, host, pid, error=f"{type(e).__name__}: {e}")

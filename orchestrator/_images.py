@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from orchestrator._docker import docker_client
+from schemas import CONTAINER
 
 REPO = Path(__file__).resolve().parents[1]
 BASE_IMAGE = "eagc/base:bookworm"
@@ -30,7 +31,7 @@ AGENT_BASE_IMAGE = "eagc/agent-base:latest"
 HASH_LABEL = "eagc.build-hash"
 MIRROR = "http://deb.debian.org/debian"
 CLIENT_SOURCES = ("pyproject.toml", "schemas", "simhost/__init__.py", "simhost/agent.py",
-                  "simhost/_wire.py", "simhost/_transport.py")
+                  "simhost/_wire.py", "simhost/_transport.py", "simhost/_outputs.py")
 def example_agents() -> dict[str, Path]:
     """Every ``examples/<name>/Dockerfile``, as tag ``eagc/<name with - for _>:latest``.
 
@@ -136,7 +137,7 @@ def build_agent_base(client: Any, say: Say = print, *, force: bool = False) -> s
             "RUN python3 -m pip install --no-cache-dir --break-system-packages --no-index "
             "--find-links /tmp/wheels eagc && rm -rf /tmp/wheels\n"
             "ENV HOME=/tmp PYTHONDONTWRITEBYTECODE=1\n"
-            "USER 10001:10001\n"
+            f"USER {CONTAINER.uid}:{CONTAINER.uid}\n"
         )
         _docker_build(client, ctx, AGENT_BASE_IMAGE, want, say)
     return AGENT_BASE_IMAGE

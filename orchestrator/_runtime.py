@@ -11,14 +11,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from schemas import ContainerExit, Limits
+from schemas import CONTAINER, ContainerExit, Limits
 
-#: Where the container sees its folders (the container contract; see README).
-CONTAINER_SOCKET_DIR = "/run/eagc"
-CONTAINER_OUTPUT = "/output"
-CONTAINER_INPUT = "/input"
-SOCKET_NAME = "zenoh.sock"
-AGENT_UID = 10001
 LABEL_PREFIX = "eagc"
 
 
@@ -58,17 +52,9 @@ class AgentLaunch:
     def environment(
         self, *, socket_dir: str, output_dir: str, input_dir: str | None
     ) -> dict[str, str]:
-        """The agent's environment: endpoint, opaque episode id, its folders. Nothing else."""
-        env = {
-            "EAGC_ENDPOINT": f"unixsock-stream/{socket_dir}/{SOCKET_NAME}",
-            "EAGC_EPISODE": self.episode,
-            "EAGC_OUTPUT": output_dir,
-            "HOME": "/tmp",
-            "PYTHONUNBUFFERED": "1",
-        }
-        if input_dir is not None:
-            env["EAGC_INPUT"] = input_dir
-        return env
+        """The agent's environment (``CONTAINER.environment``). Nothing else."""
+        return CONTAINER.environment(
+            self.episode, socket_dir=socket_dir, output_dir=output_dir, input_dir=input_dir)
 
 
 class AgentHandle(ABC):

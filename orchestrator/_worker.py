@@ -34,8 +34,6 @@ import numpy as np
 from orchestrator._collect import collect, mount_output, unmount_output
 from orchestrator._cpus import placed
 from orchestrator._runtime import (
-    AGENT_UID,
-    SOCKET_NAME,
     AgentHandle,
     AgentLaunch,
     AgentRuntime,
@@ -43,6 +41,7 @@ from orchestrator._runtime import (
 )
 from plugins import Scenario, ScoringInput, TrackPlugin, load_track
 from schemas import (
+    CONTAINER,
     ContainerExit,
     EpisodeResult,
     EpisodeStats,
@@ -51,13 +50,13 @@ from schemas import (
     FileCheck,
     Limits,
     ScoreCard,
+    unix_endpoint,
 )
 from simhost._host import HostConfig, HostOutcome, SimHost
 from simhost._mcap import McapRecorder
 
 log = logging.getLogger("eagc.worker")
 
-MAX_SOCKET_PATH = 100  # AF_UNIX paths are limited to 108 bytes
 
 
 @dataclass(frozen=True)
@@ -74,6 +73,8 @@ class EpisodeSpec:
     labels: Mapping[str, str] = field(default_factory=dict)
     episode: str | None = None
     exit_grace_s: float = 10.0
+    #: The episode's index within its split in a campaign (None: a one-off episode).
+    index: int | None = None
 
 
 def new_episode_id() -> str:
@@ -168,16 +169,16 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
     episode_id = spec.episode or new_episode_id()
     root = spec.runs_dir.resolve() / episode_id
     sock_dir, output, host_dir = root / "sock", root / "output", root / "host"
-    socket_path = sock_dir / SOCKET_NAME
-    if len(str(socket_path)) > MAX_SOCKET_PATH:
+    socket_path = sock_dir / CONTAINER.socket_name
+    if len(str(socket_path)) > CONTAINER.max_socket_path:
         raise ValueError(
-            f"socket path {socket_path} is longer than {MAX_SOCKET_PATH} bytes (a unix socket "
-            "limit): choose a shorter runs folder"
+            f"socket path {socket_path} is longer than {CONTAINER.max_socket_path} bytes "
+            "(a unix socket limit): choose a shorter runs folder"
         )
     for d in (sock_dir, host_dir):
         d.mkdir(parents=True, exist_ok=True)
     sock_dir.chmod(0o755)
-    mounted = mount_output(output, spec.limits.output_mb, AGENT_UID)
+    mounted = mount_output(output, spec.limits.output_mb, CONTAINER.uid)
 
     recorder = McapRecorder(host_dir / "episode.mcap")
     snapshots = _Snapshots(output, host_dir, spec.limits, recorder)
@@ -191,7 +192,9 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
     input_dir: Path | None = None
     cores = ExitStack()  # the episode's cores, held until its host and agent are gone
     try:
-        scenario = plugin.make_scenario(seed=spec.seed, split=spec.split, params=spec.params)
+        extra = {} if spec.index is None else {"index": spec.index}
+        scenario = plugin.make_scenario(seed=spec.seed, split=spec.split, params=spec.params,
+                                        **extra)
         placement = cores.enter_context(placed(spec.limits.cpus, enabled=spec.limits.pin_cpus))
         recorder.write_json("/eagc/scenario", 0.0, {
             "episode": episode_id, "track": spec.track, "split": spec.split, "seed": spec.seed,
@@ -210,7 +213,7 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
             HostConfig(
                 episode=episode_id,
                 track=spec.track,
-                endpoints=(f"unixsock-stream/{socket_path}",),
+                endpoints=(unix_endpoint(str(socket_path)),),
                 socket_path=socket_path,
                 time_scale=spec.limits.time_scale,
                 max_steps_per_stage=spec.limits.max_steps_per_stage,

@@ -179,14 +179,15 @@ def replay(
 def preview(
     seed: Annotated[int, typer.Option(help="Scenario seed (a public one).")] = 0,
     split: Annotated[str, typer.Option()] = "standard",
+    track: Annotated[str, typer.Option(help="The track.")] = "track1",
     out: Annotated[Path, typer.Option(help="Folder for the PNG.")] = Path("."),
 ) -> None:
-    """Track 1 scene preview: the top-down map (rooms, doors, objects, task) and a camera
-    frame, as PNG."""
-    from plugins.track1 import preview as render_preview
+    """A scenario preview as PNG (Track 1: the top-down map with the task, and a camera
+    frame)."""
+    from plugins import load_track
 
-    for path in render_preview(seed, split, out):
-        console.print(f"[green]✓[/] {path}")
+    path = load_track(track).preview(seed=seed, split=split, out=out)
+    console.print(f"[green]✓[/] {path}")
 
 
 @app.command()
@@ -195,19 +196,11 @@ def picture(
 ) -> None:
     """Draw an episode: Track 1's trajectory over the map, Track 2's attempt beside the
     demonstration."""
+    from plugins import load_track
     from schemas import EpisodeResult, load_json
 
     result = load_json(episode / "host" / "result.json", EpisodeResult)
-    if result.track == "track1":
-        from plugins.track1 import trajectory_png
-
-        path = trajectory_png(episode)
-    elif result.track == "track2":
-        from plugins.track2 import attempt_png
-
-        path = attempt_png(episode)
-    else:
-        raise typer.BadParameter(f"no picture for track {result.track!r} yet")
+    path = load_track(result.track).picture(episode)
     console.print(f"[green]✓[/] {path}")
 
 

@@ -46,17 +46,12 @@ from typing import Any, ClassVar
 
 from orchestrator._collect import mount_output, unmount_output
 from orchestrator._runtime import (
-    AGENT_UID,
-    CONTAINER_INPUT,
-    CONTAINER_OUTPUT,
-    CONTAINER_SOCKET_DIR,
-    SOCKET_NAME,
     AgentHandle,
     AgentLaunch,
     AgentRuntime,
     AgentStartError,
 )
-from schemas import ContainerExit, Limits
+from schemas import CONTAINER, ContainerExit, Limits, unix_endpoint
 
 __all__ = [
     "PROBE_SCRIPT",
@@ -83,7 +78,7 @@ def probe_build_context(folder: Path, base_image: str = "eagc/agent-base:latest"
         "# The runtime conformance probe (orchestrator/_runtime_probe.py), built offline.\n"
         f"FROM {base_image}\n"
         "COPY probe.py /app/probe.py\n"
-        f"USER {AGENT_UID}:{AGENT_UID}\n"
+        f"USER {CONTAINER.uid}:{CONTAINER.uid}\n"
         'CMD ["python3", "-u", "/app/probe.py"]\n'
     )
     return folder
@@ -146,7 +141,7 @@ class RuntimeConformance:
         (inputs / "probe.json").write_text(json.dumps({"do": tasks}))
         inputs.chmod(0o755)
         (inputs / "probe.json").chmod(0o644)
-        mounted = mount_output(output, self.limits.output_mb, AGENT_UID)
+        mounted = mount_output(output, self.limits.output_mb, CONTAINER.uid)
         launch = AgentLaunch(
             image=image, episode="rt" + secrets.token_hex(8), socket_dir=sock,
             output_dir=output, input_dir=inputs, limits=self.limits,
@@ -229,11 +224,11 @@ class RuntimeConformance:
             episode = run.launch.episode
         assert found, "the probe wrote nothing to its output folder"
         env = found["report"]["env"]
-        assert env["EAGC_EPISODE"] == episode
-        assert env["EAGC_ENDPOINT"].startswith("unixsock-stream/")
-        assert env["EAGC_ENDPOINT"].endswith(f"/{SOCKET_NAME}")
+        assert env[CONTAINER.env_episode] == episode
+        assert env[CONTAINER.env_endpoint].startswith(unix_endpoint(""))
+        assert env[CONTAINER.env_endpoint].endswith(f"/{CONTAINER.socket_name}")
         assert "probe.json" in found["report"]["input_listing"]
-        for key in ("EAGC_OUTPUT", "EAGC_INPUT"):
+        for key in (CONTAINER.env_output, CONTAINER.env_input):
             assert env.get(key), f"{key} is not set"
 
     def test_children_die_with_the_agent(self, runtime: AgentRuntime, probe_image: str) -> None:
@@ -308,14 +303,15 @@ class SandboxConformance(RuntimeConformance):
         finally:
             value = os.environ.pop(canary)
         env = rep["env"]
-        contract = {"EAGC_ENDPOINT", "EAGC_EPISODE", "EAGC_OUTPUT", "EAGC_INPUT"}
+        contract = {CONTAINER.env_endpoint, CONTAINER.env_episode, CONTAINER.env_output,
+                    CONTAINER.env_input}
         assert canary not in env
         extra = [k for k in env
                  if k not in contract and k not in _IMAGE_ENV and not k.startswith("LC_")]
         assert not extra, f"variables beyond the contract and the image's own: {extra}"
-        assert env["EAGC_ENDPOINT"] == (
-            f"unixsock-stream/{CONTAINER_SOCKET_DIR}/{SOCKET_NAME}")
-        assert env["EAGC_OUTPUT"] == CONTAINER_OUTPUT and env["EAGC_INPUT"] == CONTAINER_INPUT
+        assert env[CONTAINER.env_endpoint] == unix_endpoint(CONTAINER.socket_path)
+        assert env[CONTAINER.env_output] == CONTAINER.output_dir
+        assert env[CONTAINER.env_input] == CONTAINER.input_dir
         assert value not in json.dumps(rep)
         assert host_root not in json.dumps(env), "a host path in the agent's environment"
 

@@ -118,8 +118,14 @@ class TrackPlugin(ABC):
         """The stages, in order, with their official budgets."""
 
     @abstractmethod
-    def make_scenario(self, *, seed: int, split: str, params: Mapping[str, Any]) -> Scenario:
-        """The hidden scenario of ``seed`` in ``split``. Same arguments → same scenario."""
+    def make_scenario(
+        self, *, seed: int, split: str, params: Mapping[str, Any], index: int | None = None
+    ) -> Scenario:
+        """The hidden scenario of ``seed`` in ``split``. Same arguments → same scenario.
+
+        ``index`` is the episode's index within its split in a campaign (e.g. to balance
+        task families by ``index mod n``), ``None`` for a one-off episode.
+        """
 
     @abstractmethod
     def make_episode(self, scenario: Scenario) -> TrackEpisode:
@@ -128,6 +134,22 @@ class TrackPlugin(ABC):
     @abstractmethod
     def score(self, data: ScoringInput) -> ScoreCard:
         """Scores one episode, whatever way it ended."""
+
+    def picture(self, episode_dir: Path, out: Path | None = None) -> Path:
+        """Draws a recorded episode as a PNG (title: track, seed, split, outcome; a legend
+        for every colour and marker; a scale) and returns its path (default: in the
+        episode's ``host/`` folder). Raises ``PluginError`` when the track has none,
+        ``ValueError`` when the folder is not one of this track's episodes."""
+        from plugins._registry import PluginError
+
+        raise PluginError(f"track {self.name!r} draws no pictures of episodes")
+
+    def preview(self, *, seed: int, split: str, out: Path) -> Path:
+        """Draws the scenario of a (public) seed as a PNG in folder ``out`` and returns its
+        path. Raises ``PluginError`` when the track has no previews."""
+        from plugins._registry import PluginError
+
+        raise PluginError(f"track {self.name!r} has no scenario previews")
 
     def write_inputs(self, scenario: Scenario, folder: Path) -> None:  # noqa: B027
         """Writes read-only inputs mounted into the container (e.g. a demo packet)."""

@@ -6,6 +6,7 @@ regenerates them; a test fails on drift).
 """
 
 from schemas._campaign import CampaignSpec, Limits, Split, Submission
+from schemas._contract import CONTAINER, ContainerContract, unix_endpoint
 from schemas._demo import DEMO_VERSION, Annotation, ArraySpec, DemoManifest, FrameSpec, KeyStage
 from schemas._errors import SchemaError
 from schemas._files import (
@@ -55,6 +56,7 @@ from schemas._result import (
 )
 
 __all__ = [
+    "CONTAINER",
     "DEMO_VERSION",
     "PROTOCOL_VERSION",
     "TASK_MODEL_VERSION",
@@ -66,6 +68,7 @@ __all__ = [
     "ArraySpec",
     "CampaignSpec",
     "Connection",
+    "ContainerContract",
     "ContainerExit",
     "ContainerState",
     "DemoManifest",
@@ -107,4 +110,5 @@ __all__ = [
     "load_json",
     "parse_json",
     "parse_jsonl",
+    "unix_endpoint",
 ]

@@ -13,6 +13,9 @@ _EXPORTS = {
     "RemoteEnv": "simhost.agent",
     "TimeStep": "simhost.agent",
     "HostError": "simhost.agent",
+    "OutputFiles": "simhost._outputs",
+    "OutputFileError": "simhost._outputs",
+    "Pose": "simhost._episode",
     "SimHost": "simhost._host",
     "HostConfig": "simhost._host",
     "HostOutcome": "simhost._host",
@@ -36,6 +39,9 @@ __all__ = [
     "HostOutcome",
     "McapRecorder",
     "Observation",
+    "OutputFileError",
+    "OutputFiles",
+    "Pose",
     "RemoteEnv",
     "SimHost",
     "StageSpec",
@@ -49,9 +55,10 @@ __all__ = [
 
 if TYPE_CHECKING:
     from simhost._actions import ActionError, check_action
-    from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
+    from simhost._episode import Observation, Pose, StageSpec, StepOutcome, TrackEpisode
     from simhost._host import EpisodeRecorder, HostConfig, HostOutcome, SimHost
     from simhost._mcap import McapRecorder
+    from simhost._outputs import OutputFileError, OutputFiles
     from simhost._png import encode_png, write_png
     from simhost.agent import HostError, RemoteEnv, TimeStep
 

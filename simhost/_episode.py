@@ -36,6 +36,17 @@ class StageSpec:
 
 
 @dataclass(frozen=True)
+class Pose:
+    """A rigid pose in the world frame (metres; unit quaternion w, x, y, z).
+
+    Organizer-only: the MCAP recorder logs a track's poses in a Foxglove schema, so that
+    the 3D panel shows the robot's or the parts' trajectory."""
+
+    position: tuple[float, float, float]
+    orientation: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class Observation:
     """What the agent sees: arrays travel as tensors, the rest as JSON."""
 
@@ -97,6 +108,16 @@ class TrackEpisode(ABC):
     @abstractmethod
     def observe(self) -> Observation:
         """The current observation, without changing anything."""
+
+    def step_budget(self, stage: str) -> int | None:
+        """This episode's own step cap for ``stage`` (e.g. derived from its ground truth, so
+        that exhaustive search does not fit), or None. Known from construction: the host
+        announces it at ``hello`` and enforces the smaller of it and any campaign-wide cap."""
+        return None
+
+    def poses(self) -> Mapping[str, Pose]:
+        """Organizer-only poses (robot, parts) by frame name, for the MCAP 3D view."""
+        return {}
 
     def sim_state(self) -> bytes:
         """The full simulator state, for replay. Default: none."""

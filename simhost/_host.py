@@ -536,7 +536,8 @@ class SimHost:
         return self.stages[self._stage].name
 
     def _step_cap(self, stage: StageSpec) -> int | None:
-        caps = [c for c in (stage.max_steps, self.config.max_steps_per_stage) if c is not None]
+        caps = [c for c in (stage.max_steps, self.config.max_steps_per_stage,
+                            self.episode.step_budget(stage.name)) if c is not None]
         return min(caps) if caps else None
 
     def _start_stage(self, index: int) -> None:

@@ -13,9 +13,6 @@ import re
 import zenoh
 
 KEY_ROOT = "eagc/v1"
-ENV_ENDPOINT = "EAGC_ENDPOINT"
-ENV_EPISODE = "EAGC_EPISODE"
-ENV_OUTPUT = "EAGC_OUTPUT"
 _EPISODE_RE = re.compile(r"^[A-Za-z0-9_-]{4,64}$")
 
 
@@ -29,10 +26,6 @@ def keys(episode: str) -> dict[str, str]:
     """The agent-facing keys of one episode."""
     base = f"{KEY_ROOT}/{check_episode_id(episode)}/agent"
     return {"req": f"{base}/req", "rep": f"{base}/rep", "alive": f"{base}/alive"}
-
-
-def unix_endpoint(socket_path: str) -> str:
-    return f"unixsock-stream/{socket_path}"
 
 
 def _base_config(mode: str) -> zenoh.Config:

@@ -25,6 +25,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import zenoh
 
+from schemas._contract import CONTAINER
 from schemas._protocol import (
     PROTOCOL_VERSION,
     ActionResult,
@@ -39,9 +40,10 @@ from schemas._protocol import (
     StageInfo,
 )
 from simhost import _transport
+from simhost._outputs import OutputFileError, OutputFiles
 from simhost._wire import decode_observation, decode_reply, encode
 
-__all__ = ["HostError", "RemoteEnv", "TimeStep"]
+__all__ = ["HostError", "OutputFileError", "OutputFiles", "RemoteEnv", "TimeStep"]
 
 _MATCH_WAIT_S = 5.0  # at most this long for the host's subscriber before the first hello
 _HELLO_RESEND_S = 0.5  # then hello is resent at this interval until a reply comes
@@ -95,12 +97,12 @@ class RemoteEnv:
         *,
         timeout_s: float | None = None,
     ) -> None:
-        endpoint = endpoint or os.environ.get(_transport.ENV_ENDPOINT)
-        episode = episode or os.environ.get(_transport.ENV_EPISODE)
+        endpoint = endpoint or os.environ.get(CONTAINER.env_endpoint)
+        episode = episode or os.environ.get(CONTAINER.env_episode)
         if not endpoint or not episode:
             raise ValueError(
-                f"no endpoint/episode: pass them or set {_transport.ENV_ENDPOINT} and "
-                f"{_transport.ENV_EPISODE} (the evaluator sets both in the container)"
+                f"no endpoint/episode: pass them or set {CONTAINER.env_endpoint} and "
+                f"{CONTAINER.env_episode} (the evaluator sets both in the container)"
             )
         self.episode = episode
         self._timeout = timeout_s

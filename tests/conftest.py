@@ -46,20 +46,24 @@ class HostHandle:
 
 @pytest.fixture
 def sim_host(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., HostHandle]]:
-    """Factory: ``sim_host(seed=1, split="standard", **HostConfig fields) -> HostHandle``.
+    """Factory: ``sim_host(seed=1, split="standard", step_budgets=None, **HostConfig fields)
+    -> HostHandle`` (``step_budgets``: the episode's own step caps by stage).
 
     Defaults keep the budgets out of the way (official 60 s stages, 30 s to start); pass
     ``time_scale``, ``max_steps_per_stage``, ``max_protocol_errors``, … to change them.
     """
     from plugins import load_track
+    from schemas import unix_endpoint
     from simhost import HostConfig, SimHost
-    from simhost._transport import unix_endpoint
 
     handles: list[tuple[HostHandle, Any]] = []
 
-    def start(*, seed: int = 1, split: str = "standard", **overrides: Any) -> HostHandle:
+    def start(*, seed: int = 1, split: str = "standard",
+              step_budgets: dict[str, int] | None = None, **overrides: Any) -> HostHandle:
         track = load_track("sanity")
         episode = track.make_episode(track.make_scenario(seed=seed, split=split, params={}))
+        if step_budgets is not None:  # the episode's own caps (TrackEpisode.step_budget)
+            episode.step_budget = step_budgets.get  # type: ignore[method-assign]
         # A short folder: unix socket paths are limited to 108 bytes.
         sock = tmp_path_factory.mktemp("ep") / "sock" / "zenoh.sock"
         sock.parent.mkdir()

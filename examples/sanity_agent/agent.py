@@ -3,21 +3,19 @@
 Explores the arena along a lawn-mower path until the target is in sensing range, writes its
 position to /output/world_model.json and ends the stage; then drives to it. If the target
 jumps (the track's controlled exception), it logs ``exception_detected``, updates its model
-and drives to the new place. Files are written to a temporary name and renamed.
+and drives to the new place. Files go through ``OutputFiles`` (checked against the schema,
+written to a temporary name and renamed, so the host never sees half a file).
 """
 
 from __future__ import annotations
 
-import json
-import os
 import sys
-from pathlib import Path
 
 import numpy as np
 
-from simhost.agent import RemoteEnv
+from schemas import WORLD_MODEL_VERSION, WorldModel
+from simhost.agent import OutputFiles, RemoteEnv
 
-OUT = Path(os.environ.get("EAGC_OUTPUT", "/output"))
 WAYPOINTS = [(-1.5, -1.5), (1.5, -1.5), (1.5, -0.5), (-1.5, -0.5), (-1.5, 0.5), (1.5, 0.5),
              (1.5, 1.5), (-1.5, 1.5)]
 
@@ -26,20 +24,16 @@ class Agent:
     def __init__(self) -> None:
         self.step = 0
         self.target: np.ndarray | None = None
-        self.log = (OUT / "episode_log.jsonl").open("a")
+        self.files = OutputFiles()  # $EAGC_OUTPUT
 
     def record(self, event: str, stage: str, **kw: object) -> None:
-        self.log.write(json.dumps({"step": self.step, "stage": stage, "event": event, **kw}) + "\n")
-        self.log.flush()
+        self.files.log(step=self.step, stage=stage, event=event, **kw)
 
     def write_model(self) -> None:
         objects = [] if self.target is None else [
             {"id": "target", "category": "target", "position": self.target.tolist()}]
-        doc = {"version": "eagc-world-model/v1", "step": self.step, "rooms": [{"id": "arena"}],
-               "objects": objects}
-        tmp = OUT / ".world_model.json.tmp"
-        tmp.write_text(json.dumps(doc))
-        tmp.replace(OUT / "world_model.json")
+        self.files.write(WorldModel(version=WORLD_MODEL_VERSION, step=self.step,
+                                    rooms=[{"id": "arena"}], objects=objects))
 
     def sense(self, obs: dict) -> bool:
         """Updates the target estimate; True when the target is not where the model says."""

@@ -180,7 +180,9 @@ class SanityTrack(TrackPlugin):
             StageSpec("reach", budget_s=60.0, description="drive onto the target"),
         ]
 
-    def make_scenario(self, *, seed: int, split: str, params: Mapping[str, Any]) -> Scenario:
+    def make_scenario(
+        self, *, seed: int, split: str, params: Mapping[str, Any], index: int | None = None
+    ) -> Scenario:
         from simhost.sanity import sample_point
 
         merged = {**self.splits.get(split, (1.0, {}))[1], **params}

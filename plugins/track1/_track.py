@@ -12,6 +12,7 @@ recovery, invalid actions, runtime.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 from plugins._base import Column, FileRule, Scenario, ScoringInput, TrackPlugin
@@ -62,7 +63,9 @@ class Track1(TrackPlugin):
                       "send done when finished"),
         ]
 
-    def make_scenario(self, *, seed: int, split: str, params: Mapping[str, Any]) -> Scenario:
+    def make_scenario(
+        self, *, seed: int, split: str, params: Mapping[str, Any], index: int | None = None
+    ) -> Scenario:
         merged = {**self.splits.get(split, (1.0, {}))[1], **params}
         check_params(merged)
         return Scenario(track=self.name, split=split, seed=seed,
@@ -73,6 +76,22 @@ class Track1(TrackPlugin):
 
     def score(self, data: ScoringInput) -> ScoreCard:
         return _score.score(data, self.name)
+
+    def picture(self, episode_dir: Path, out: Path | None = None) -> Path:
+        """The robot's trajectory over the house, coloured by stage."""
+        from plugins.track1._pictures import trajectory_png
+
+        path = trajectory_png(episode_dir)
+        if out is not None and out != path:
+            out.parent.mkdir(parents=True, exist_ok=True)
+            path = path.replace(out)
+        return path
+
+    def preview(self, *, seed: int, split: str, out: Path) -> Path:
+        """The top-down map with the task marked, beside the robot's first camera frame."""
+        from plugins.track1._pictures import preview
+
+        return preview(seed, split, out)[0]
 
     def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:
         """Table IV's row: Std., Ch., Final (eq. 2), Task Succ. %, Model Verif. %, Recovery %

@@ -80,7 +80,9 @@ class Track2(TrackPlugin):
                       description="execute the task on the hidden instance, up to 3 attempts"),
         ]
 
-    def make_scenario(self, *, seed: int, split: str, params: Mapping[str, Any]) -> Scenario:
+    def make_scenario(
+        self, *, seed: int, split: str, params: Mapping[str, Any], index: int | None = None
+    ) -> Scenario:
         merged = {**self.splits.get(split, (1.0, {}))[1], **params}
         return Scenario(track=self.name, split=split, seed=seed,
                         params=scenario_params(seed, merged))
@@ -135,6 +137,12 @@ class Track2(TrackPlugin):
         return ScoreCard(track=self.name, total=min(1.0, max(0.0, total)),
                          components=components, weights=dict(self.weights), metrics=metrics,
                          notes=tuple(notes))
+
+    def picture(self, episode_dir: Path, out: Path | None = None) -> Path:
+        """The successful (else the last) attempt beside the demonstration."""
+        from plugins.track2._picture import attempt_png
+
+        return attempt_png(episode_dir, path=out)
 
     def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:
         """Table VII's row: per-family and average scores (0–100), success and task-model

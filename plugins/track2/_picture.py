@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from plugins.track2._episode import DEMO_FOLDER, EXECUTION
+from plugins.track2._scenario import Track2Scenario
 
 
 def _read_log(mcap: Path) -> tuple[dict[str, Any], dict[int, list[list[float]]], int | None]:
@@ -62,7 +63,7 @@ def attempt_png(
       FileNotFoundError: no MCAP log in the folder.
       ValueError: not a Track 2 episode, or the attempt has no recorded step.
     """
-    from simhost.track2 import InstanceParams, render_attempt_vs_demo, write_demo_packet
+    from simhost.track2 import render_attempt_vs_demo, write_demo_packet
 
     root = Path(episode_dir)
     mcap = root / "host" / "episode.mcap"
@@ -82,9 +83,9 @@ def attempt_png(
     if (demo / "manifest.json").is_file():
         render_attempt_vs_demo(demo, attempt_xyz, path=out)
         return out
-    params = scenario["params"]
+    hidden = Track2Scenario.model_validate(scenario["params"])
     with tempfile.TemporaryDirectory() as tmp:
-        write_demo_packet(Path(tmp) / DEMO_FOLDER, InstanceParams.model_validate(params["source"]),
-                          seed=int(params["demo_seed"]), frames=bool(params.get("demo_frames")))
+        write_demo_packet(Path(tmp) / DEMO_FOLDER, hidden.source, seed=hidden.demo_seed,
+                          config=hidden.bench, frames=hidden.demo_frames)
         render_attempt_vs_demo(Path(tmp) / DEMO_FOLDER, attempt_xyz, path=out)
     return out

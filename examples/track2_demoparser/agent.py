@@ -1,25 +1,25 @@
 """Demo-parser baseline for Track 2: segment the demonstration, call scripted controllers.
 
-Uses only ``simhost.agent.RemoteEnv``, numpy and the standard library (the packet is read
-with ``json`` and ``numpy.load(allow_pickle=False)``).
+Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), ``schemas`` (the packet's
+``DemoManifest``, ``TaskModel``), numpy and the standard library.
 
 - ``demonstration``: reads the packet where the host says (``$EAGC_INPUT/<folder>``) and
   ends the stage.
-- ``parsing``: segments the demonstration into its key stages (manifest labels and
-  state-change annotations: grasp, release, …), keeps the source's parameters the
-  observation cannot show, writes ``task_model.json`` for the hidden instance it observes,
-  and ends the stage. Nothing moves here.
-- ``execution``: the family's scripted controller (``controllers.py``), closed on the
-  observations; when it finishes without success it ends the attempt and tries again (an
-  opening's measured range is kept across attempts), and rewrites the task model when it
-  learned something.
+- ``parsing``: segments the demonstration into its key stages (the manifest's labels and
+  state-change annotations: grasp, release, ...), takes from it what the observation
+  cannot show — the goal annotation's magnitude (the turn, the opening fraction, the
+  depth), the last key stage (press or pull) — writes ``task_model.json`` and ends the stage.
+  Nothing moves here.
+- ``execution``: the family's scripted controller (``controllers.py``), closed on filtered
+  observations (``perception.py``); when it is through without success it ends the attempt
+  and runs again (an opening's measured range is kept across attempts).
 
-Files go to ``$EAGC_OUTPUT`` (``/output``), written to a temporary name and renamed.
+It does what the demonstration did, with the same stages; it does not check whether the
+instance's mechanism or direction differ, nor verify the goal after acting.
 """
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from pathlib import Path
@@ -29,79 +29,108 @@ import numpy as np
 from controllers import CONTROLLERS, View
 from taskmodel import task_model
 
-from simhost.agent import RemoteEnv
+from schemas import DemoManifest
+from simhost.agent import OutputFiles, RemoteEnv
 
-OUT = Path(os.environ.get("EAGC_OUTPUT", "/output"))
-INPUT = Path(os.environ.get("EAGC_INPUT", "/input"))
 GIVE_UP_STEPS = 10  # idle steps after the controller is through before ending the attempt
+GOAL_EVENTS = ("turned", "opened", "closed", "inserted", "pressed", "aligned")
 
 
-def read_packet(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    manifest = json.loads((folder / "manifest.json").read_text())
+def read_packet(folder: Path) -> tuple[DemoManifest, dict[str, np.ndarray]]:
+    manifest = DemoManifest.model_validate_json((folder / "manifest.json").read_text())
     with np.load(folder / "trajectory.npz", allow_pickle=False) as npz:
         arrays = {k: npz[k] for k in npz.files}
     return manifest, arrays
 
 
-def segment(manifest: dict[str, Any], arrays: dict[str, np.ndarray]) -> list[dict[str, Any]]:
+def segment(man: DemoManifest, arrays: dict[str, np.ndarray]) -> list[dict[str, Any]]:
     """The demonstration's key stages with their steps, hand travel and state changes."""
     tcp = arrays["obs_proprio"][:, :3]
     out = []
-    for ks in manifest["key_stages"]:
-        a, b = ks["start"], ks["end"]
-        events = [e for e in manifest["events"] if a <= e["step"] < b + 1]
-        out.append({"stage": ks["name"], "start": a, "end": b,
+    for ks in man.key_stages:
+        a, b = ks.start, ks.end
+        events = [e for e in man.events if a <= e.step < b + 1]
+        out.append({"stage": ks.name, "start": a, "end": b,
                     "travel_m": float(np.sum(np.linalg.norm(np.diff(tcp[a:b + 1], axis=0),
                                                             axis=1))),
-                    "events": [f"{e['event']}:{e['part']}" for e in events]})
+                    "events": [f"{e.event}:{e.part}" for e in events]})
     return out
 
 
+def demo_hints(man: DemoManifest, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
+    """What the controllers need and the observation does not show, read off the packet."""
+    hints: dict[str, Any] = {}
+    goal = next((e for e in man.events if e.event in GOAL_EVENTS and e.value is not None), None)
+    if man.family == "rotation":
+        if goal is not None:
+            hints["turn"] = goal.value
+        else:  # the hand's yaw change while it held the handle
+            grasp = next((e.step for e in man.events if e.event == "grasped"), 0)
+            let_go = next((e.step for e in man.events if e.event == "released"), -1)
+            yaw = np.unwrap(arrays["obs_proprio"][:, 3])
+            hints["turn"] = float(yaw[let_go] - yaw[grasp])
+    elif man.family == "opening":
+        hints["mode"] = man.stage_names[2]
+        if goal is not None:
+            hints["fraction"] = goal.value
+    elif man.family == "insertion" and goal is not None:
+        hints["depth"] = goal.value
+    elif man.family == "tool_use":
+        hints["mechanism"] = man.stage_names[-1]
+    return hints
+
+
 class Agent:
+    name = "eagc-track2-demoparser/2"
+
     def __init__(self) -> None:
-        OUT.mkdir(parents=True, exist_ok=True)
-        self.log_file = (OUT / "episode_log.jsonl").open("a")
-        self.view = View()
+        self.files = OutputFiles()
+        self.input = Path(os.environ.get("EAGC_INPUT", "/input"))
         self.steps = 0
         self.hints: dict[str, Any] = {}
+        self.measured: dict[str, Any] = {}
         self.family = ""
-        self.source: dict[str, Any] = {}
-        self.first_view = View()
+        self.view: View | None = None
+        self.first: View | None = None
+        self.dev = False
 
     def log(self, event: str, stage: str, **data: Any) -> None:
-        self.log_file.write(json.dumps({"step": self.steps, "stage": stage, "event": event,
-                                        "data": data}) + "\n")
-        self.log_file.flush()
+        self.files.log(step=self.steps, stage=stage, event=event, data=data)
 
     def write_model(self, stage: str) -> None:
-        doc = task_model(self.family, self.first_view, self.source, self.hints, self.steps)
-        tmp = OUT / ".task_model.json.tmp"
-        tmp.write_text(json.dumps(doc, indent=1))
-        tmp.replace(OUT / "task_model.json")
-        self.log("model_update", stage, stages=doc["stages"])
+        assert self.first is not None
+        doc = task_model(self.family, self.first, self.hints, self.measured, self.steps,
+                         dev=self.dev)
+        self.files.write(doc)
+        self.log("model_update", stage, stages=doc.stages)
 
-    def receive(self, ts: Any) -> Any:
+    def receive(self, ts: Any) -> None:
         msg = ts.message("demonstration")
-        folder = INPUT / (msg.data.get("folder", "demo") if msg is not None else "demo")
+        folder = self.input / (msg.data.get("folder", "demo") if msg is not None else "demo")
         self.manifest, self.arrays = read_packet(folder)
-        self.family = self.manifest["family"]
-        self.source = self.manifest["source"]
+        self.family = self.manifest.family
         self.log("observation", ts.stage, demo=str(folder), family=self.family,
-                 demo_steps=self.manifest["num_steps"])
-        return ts
+                 demo_steps=self.manifest.num_steps)
 
     def parse(self, ts: Any) -> None:
-        segments = segment(self.manifest, self.arrays)
-        self.log("plan", ts.stage, segments=segments)
-        self.hints = {"well_depth": self.source["geometry"].get("well_depth"),
-                      "initial_joint": self.first_view.joint(0)}
+        self.log("plan", ts.stage, segments=segment(self.manifest, self.arrays))
+        self.hints = demo_hints(self.manifest, self.arrays)
+        self.measured = self.hints  # the controllers add what they measure (a range, ...)
         self.write_model(ts.stage)
 
+    def controller(self, view: View) -> Any:
+        return CONTROLLERS[self.family](view, self.hints)
+
+    def after_attempt(self, data: dict[str, Any]) -> None:
+        """Rewrite the task model when the attempt measured something (an opening's range)."""
+        if "range_measured" in self.measured and not self.measured.get("written"):
+            self.measured["written"] = True
+            self.write_model("execution")
+
     def run(self, env: RemoteEnv) -> None:
-        env.hello(agent="eagc-track2-demoparser/1")
+        env.hello(agent=self.name)
         ts = env.reset()
-        self.view.update(ts.observation, reset=True)
-        self.first_view.update(ts.observation, reset=True)
+        self.dev = "goal" in ts.observation
         attempt, plan, idle = 0, None, 0
         while not ts.episode_over:
             if ts.stage == "demonstration":
@@ -111,46 +140,48 @@ class Agent:
             if ts.stage == "parsing":
                 if not self.family:
                     self.receive(ts)
+                if self.first is None:
+                    self.first = View(self.family, len(ts.observation["parts"]))
+                    self.first.update(ts.observation, reset=True)
                 self.parse(ts)
                 ts = env.end_stage()
                 continue
             if ts.observation.get("attempt", 0) != attempt:
                 attempt = int(ts.observation["attempt"])
+                self.view = View(self.family, len(ts.observation["parts"]))
                 self.view.update(ts.observation, reset=True)
-                plan, idle = CONTROLLERS[self.family](self.view, self.hints), 0
+                plan, idle = self.controller(self.view), 0
                 self.log("attempt", ts.stage, attempt=attempt)
-            assert plan is not None
+            assert plan is not None and self.view is not None
             try:
                 action = next(plan)
             except StopIteration:
                 idle += 1
                 action = self.view.command(self.view.target[:3], self.view.target[3],
-                                           float(self.view.obs["proprio"][4]))
+                                           self.view.width())
                 if idle > GIVE_UP_STEPS:
                     self.steps += 1
                     ts = env.step({"end_attempt": 1})
-                    self.after(ts)
+                    self.heard(ts)
                     continue
             self.steps += 1
-            ts = env.step({"motion": action.astype(np.float32).tolist()})
+            ts = env.step({"motion": action.astype(np.float32)})
             self.view.update(ts.observation)
-            self.after(ts)
-        if "range_measured" in self.hints:
-            self.write_model(ts.stage)
+            self.heard(ts)
         self.log("note", ts.stage, end=ts.end_reason)
 
-    def after(self, ts: Any) -> None:
+    def heard(self, ts: Any) -> None:
         for m in ts.messages:
             if m.type == "attempt_result":
                 self.log("attempt", ts.stage, **m.data)
-                if "range_measured" in self.hints:
-                    self.write_model(ts.stage)
+                self.after_attempt(dict(m.data))
 
 
-def main() -> int:
-    agent = Agent()
+def main(agent: Agent | None = None) -> int:
+    agent = agent or Agent()
     with RemoteEnv() as env:
         agent.run(env)
+    agent.files.close()
     return 0
 
 

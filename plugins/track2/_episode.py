@@ -245,7 +245,8 @@ class Track2Episode(TrackEpisode):
 
     # ---------------------------------------------------------------- internals
     def _reset_env(self, attempt: int) -> None:
-        self._obs, info = self.env.reset(seed=self.hidden.reset_seed(attempt))
+        self._obs, info = self.env.reset(seed=self.hidden.reset_seed(attempt),
+                                         options={"bias_seed": self.hidden.episode_seed})
         self._progress = float(info["progress"])
 
     def _refuse(self, reason: str) -> StepOutcome:

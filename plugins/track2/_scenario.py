@@ -119,10 +119,11 @@ def _check(split: str, params: Mapping[str, Any]) -> str:
 
 
 @functools.lru_cache(maxsize=512)
-def expert_steps(instance_json: str, bench_json: str, seed: int, cap: int,
-                 observed: bool) -> int | None:
-    """Steps the scripted expert needs on an instance reset with ``seed`` (``None``: not
-    solved within ``cap``). ``observed``: it reads the observations, not the simulation."""
+def expert_steps(instance_json: str, bench_json: str, seed: int, bias_seed: int | None,
+                 cap: int, observed: bool) -> int | None:
+    """Steps the scripted expert needs on an instance reset with ``seed`` (and the episode's
+    ``bias_seed``), ``None`` if not solved within ``cap``. ``observed``: it reads the
+    observations, not the simulation."""
     from simhost.track2 import BenchEnv, ScriptedExpert
 
     bench = BenchConfig.model_validate_json(bench_json)
@@ -132,7 +133,7 @@ def expert_steps(instance_json: str, bench_json: str, seed: int, cap: int,
     env = BenchEnv(InstanceParams.model_validate_json(instance_json), config=bench,
                    render_rgbd=False, max_steps=cap)
     try:
-        obs, _ = env.reset(seed=seed)
+        obs, _ = env.reset(seed=seed, options={"bias_seed": bias_seed})
         expert = ScriptedExpert(env, observed=observed, obs=obs)
         for k in range(1, cap + 1):
             obs, _, terminated, truncated, info = env.step(expert(obs))
@@ -145,16 +146,19 @@ def expert_steps(instance_json: str, bench_json: str, seed: int, cap: int,
         env.close()
 
 
-def _first_solved(draw: Callable[[int], InstanceParams], solved: Callable[[InstanceParams],
-                  int | None]) -> tuple[InstanceParams, int | None, int]:
-    """The first of ``draw(0)``, ``draw(1)``, … that ``solved`` solves (else the last)."""
-    params, steps = draw(0), None
+def _first_solved(draw: Callable[[int], tuple[InstanceParams, int]],
+                  solved: Callable[[InstanceParams, int], int | None]
+                  ) -> tuple[InstanceParams, int, int | None, int]:
+    """The first draw ``draw(0)``, ``draw(1)``, … (an instance and its episode seed) that
+    ``solved`` solves, else the last; with the expert's steps and the number of draws."""
+    params, seed = draw(0)
+    steps = None
     for k in range(1, MAX_DRAWS + 1):
-        steps = solved(params)
+        steps = solved(params, seed)
         if steps is not None:
-            return params, steps, k
-        params = draw(k)
-    return params, steps, MAX_DRAWS
+            return params, seed, steps, k
+        params, seed = draw(k)
+    return params, seed, steps, MAX_DRAWS
 
 
 def make_track2_scenario(seed: int, split: str, params: Mapping[str, Any],
@@ -174,17 +178,20 @@ def make_track2_scenario(seed: int, split: str, params: Mapping[str, Any],
     cap = int(params.get("attempt_steps") or family_step_cap(family))
     rng = np.random.default_rng(seed)
     src_seed, inst_seed, demo_seed, episode_seed = (
-        int(x) for x in rng.integers(0, 2**31 - MAX_DRAWS - MAX_ATTEMPTS - 1, 4))
+        int(x) for x in rng.integers(0, 2**31 - (MAX_DRAWS + 1) * (MAX_ATTEMPTS + 1), 4))
     bench_json = bench.model_dump_json()
     full = family_step_cap(family)
     around_canon = variation.model_copy(update={"goal_from_source": False,
                                                 "difficulty": variation.source_spread})
-    source, _, _ = _first_solved(
-        lambda k: sample_instance(family, src_seed + k, variation=around_canon),
-        lambda p: expert_steps(p.model_dump_json(), bench_json, demo_seed, full, False))
-    instance, steps, draws = _first_solved(
-        lambda k: sample_instance(family, inst_seed + k, source=source, variation=variation),
-        lambda p: expert_steps(p.model_dump_json(), bench_json, episode_seed + 1, cap, True))
+    source, demo_seed, _, _ = _first_solved(
+        lambda k: (sample_instance(family, src_seed + k, variation=around_canon), demo_seed + k),
+        lambda p, s: expert_steps(p.model_dump_json(), bench_json, s, None, full, False))
+    # A redraw also redraws the episode's seed: its jitter, noise and measurement biases.
+    stride = MAX_ATTEMPTS + 1
+    instance, episode_seed, steps, draws = _first_solved(
+        lambda k: (sample_instance(family, inst_seed + k, source=source, variation=variation),
+                   episode_seed + stride * k),
+        lambda p, s: expert_steps(p.model_dump_json(), bench_json, s + 1, s, cap, True))
     return Track2Scenario(
         preset=preset_name, family=family, bench=bench, variation=variation, source=source,
         instance=instance, distance=round(instance_distance(source, instance), 6),

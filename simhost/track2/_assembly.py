@@ -7,7 +7,9 @@ each next part onto the previous one.
 A part is *placed* when it rests on its support (tray floor or the previous part, height
 within 5 mm), its centre is within ``tolerances.assembly_xy_m`` of the support's centre
 (within the tray clearance plus 2 mm for ``part1``), its yaw matches the support's modulo
-pi/2 within ``tolerances.assembly_yaw_rad``, it is level, and the gripper does not touch it.
+pi/2 within ``tolerances.assembly_yaw_rad`` — turned by 45 degrees on a ``diagonal`` stack
+(``part2`` and ``part3``; the goal the demonstration shows) —, it is level, and the gripper
+does not touch it.
 
 Stages: ``reach_partK -> grasp_partK -> transport_partK -> place_partK`` for K = 1..n.
 Success: every part placed. Events: ``grasped``/``released``, ``lifted``, ``placed``
@@ -36,6 +38,7 @@ from ._family import (
     nearest_yaw,
     pick,
     servo,
+    spiral,
     truth_doc,
     var,
 )
@@ -48,6 +51,7 @@ if TYPE_CHECKING:
 SCALES = (1.0, 0.85, 0.72)
 WALL_H = 0.008
 WALL_T = 0.012
+TRAY_CHAMFER = 0.003  # the tray's rim is chamfered: it guides a part up to 3 mm off
 
 
 class AssemblyTask(FamilyTask):
@@ -65,6 +69,7 @@ class AssemblyTask(FamilyTask):
         self.half = [p.f("part_half") * k for k in SCALES[: self.n]]
         self.H = p.f("part_height")
         self.clear = p.f("tray_clearance")
+        self.turn = math.pi / 4 if p.value("stack") == "diagonal" else 0.0
         self.start = [
             np.array([p.f(f"p{i + 1}_x"), p.f(f"p{i + 1}_y"), p.f(f"p{i + 1}_yaw")])
             for i in range(self.n)
@@ -73,7 +78,7 @@ class AssemblyTask(FamilyTask):
     def scene(self) -> Scene:
         fr = f'friction="{self.p.f("part"):.4f} 0.005 0.0001"'
         inner = self.half[0] + self.clear / 2
-        walls = "".join(box_walls(inner, inner, WALL_T, WALL_H))
+        walls = "".join(box_walls(inner, inner, WALL_T, WALL_H, chamfer=TRAY_CHAMFER))
         colours = ("0.2 0.6 0.3 1", "0.9 0.75 0.2 1", "0.3 0.4 0.85 1")
         bodies = [
             f'<body name="tray" pos="{self.p.f("tray_x"):.5f} {self.p.f("tray_y"):.5f} 0" '
@@ -136,7 +141,8 @@ class AssemblyTask(FamilyTask):
         xy, top, yaw = self.support(i, e)
         pos = e.pos(self.ids[i])
         dz = float(pos[2] - self.H / 2 - top)
-        dyaw = wrap(nearest_yaw(yaw - e.yaw(self.ids[i]), math.pi / 2))
+        goal = yaw + (self.turn if i else 0.0)
+        dyaw = wrap(nearest_yaw(goal - e.yaw(self.ids[i]), math.pi / 2))
         return xy - pos[:2], dz, dyaw
 
     def posed(self, i: int) -> bool:
@@ -214,11 +220,12 @@ class AssemblyTask(FamilyTask):
                 "xy_tolerance": self.xy_tol,
                 "yaw_tolerance": self.yaw_tol,
                 "yaw_symmetry": round(math.pi / 2, 6),
+                "stack_yaw": round(self.turn, 6),
                 "max_grip_width": WIDTH_MAX,
             },
             pre,
             success,
-            {"n_parts": self.n},
+            {"n_parts": self.n, "stack": str(self.p.value("stack"))},
         )
 
     # -- expert --------------------------------------------------------------------------------
@@ -235,13 +242,25 @@ class AssemblyTask(FamilyTask):
                     break
         yield from idle(env)
 
+    def _lower(self, env: BenchEnv, i: int) -> Plan:
+        """Lower part ``i`` onto its support (stops when it rests or cannot go lower)."""
+        stuck = 0
+        for _ in range(40):
+            _, dz, _ = self.offsets(i, self.e)
+            if dz < 0.001 or stuck >= 3:
+                return
+            ee = env.sim.ee()
+            step = min(0.008, max(0.002, dz / 2))
+            yield from move(env, np.array([*ee[:2], ee[2] - step]), ee[3], 0.0, max_steps=1)
+            stuck = stuck + 1 if env.sim.ee()[2] > ee[2] - 0.0005 else 0
+
     def _place(self, env: BenchEnv, i: int, b: int) -> Plan:
         """Pick part ``i`` where it lies, carry it over its support, lower it, let go."""
         e = self.e
         pos = e.pos(b)
         yaw = e.yaw(b)
         _, _, sup_yaw = self.support(i, e)
-        turn = nearest_yaw(sup_yaw - yaw, math.pi / 2)
+        turn = nearest_yaw(sup_yaw + (self.turn if i else 0.0) - yaw, math.pi / 2)
         yaw0 = nearest_yaw(yaw, math.pi / 2, -turn / 2)
         open_w = min(WIDTH_MAX, 2 * self.half[i] + 0.03)
         g = min(0.02, self.H - WALL_H - 0.004)
@@ -259,13 +278,15 @@ class AssemblyTask(FamilyTask):
             return err, dyaw
 
         yield from servo(env, error, carry, tol=0.001, yaw_tol=0.02)
-        for _ in range(40):  # lower onto the support
-            _, dz, _ = self.offsets(i, e)
-            if dz < 0.001:
-                break
-            ee = env.sim.ee()
-            step = min(0.008, max(0.002, dz / 2))
-            yield from move(env, np.array([*ee[:2], ee[2] - step]), ee[3], 0.0, max_steps=1)
+        yield from self._lower(env, i)
+        if i == 0 and self.offsets(i, e)[1] > 0.002:  # resting on the tray's rim: search
+            centre, base = env.sim.ee()[:2].copy(), env.sim.ee()[2]
+            for off in spiral(0.8 * (self.clear / 2 + TRAY_CHAMFER), 2):
+                yield from move(env, np.array([*(centre + off), base + 0.006]),
+                                env.sim.ee()[3], 0.0, tol=0.0015, max_steps=4)
+                yield from self._lower(env, i)
+                if self.offsets(i, e)[1] < 0.002:
+                    break
         yield from hold(env, 2, 0.0)
         yield from grip(env, open_w, 6)
         ee = env.sim.ee()

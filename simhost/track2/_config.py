@@ -38,9 +38,11 @@ class ObservationConfig(_Frozen):
 
     Proprioception (``proprio``) and the contact/force summary (``force``) are always exact.
     Part poses (``parts``) are measurements: every ``period_steps`` control steps the channel
-    measures every part as it was ``latency_steps`` steps earlier, adds Gaussian noise to its
-    position (``pose_noise_m`` per axis) and yaw (``yaw_noise_rad``), and reports the yaw only
-    modulo the part's symmetry when ``symmetric_yaw``. A part the gripper hides from the
+    measures every part as it was ``latency_steps`` steps earlier, adds a bias constant for
+    the episode (``pose_bias_m``, ``yaw_bias_rad``: a pose estimator's per-object error,
+    which averaging does not remove) and Gaussian noise to its position (``pose_noise_m``
+    per axis) and yaw (``yaw_noise_rad``), and reports the yaw only modulo the part's
+    symmetry when ``symmetric_yaw``. A part the gripper hides from the
     camera (``occlusion``: every line of sight from the camera to the part's sample points
     first meets the gripper) keeps its last measurement, and the row's ``age`` grows. All
     noise comes from the episode's seeded generator: the same seed, the same noise.
@@ -52,6 +54,12 @@ class ObservationConfig(_Frozen):
                                 description="Std. dev. of the noise on each position axis (m).")
     yaw_noise_rad: float = Field(0.0, ge=0.0, le=0.2,
                                  description="Std. dev. of the noise on a part's yaw (rad).")
+    pose_bias_m: float = Field(0.0, ge=0.0, le=0.02,
+                               description="Std. dev. of a part's constant position error per "
+                               "episode, horizontal axes (m; half of it vertically).")
+    yaw_bias_rad: float = Field(0.0, ge=0.0, le=0.2,
+                                description="Std. dev. of a part's constant yaw error per "
+                                "episode (rad).")
     period_steps: int = Field(1, ge=1, le=20,
                               description="Parts (and images) are measured every this many "
                               "control steps.")
@@ -123,7 +131,8 @@ class SplitConfig(_Frozen):
 
 
 _ROBOT = ObservationConfig(
-    pose_noise_m=0.001, yaw_noise_rad=0.015, period_steps=2, latency_steps=1, occlusion=True,
+    pose_noise_m=0.001, yaw_noise_rad=0.015, pose_bias_m=0.002, yaw_bias_rad=0.025,
+    period_steps=2, latency_steps=1, occlusion=True,
     symmetric_yaw=True, joint_readings=False, goal_vector=False, rgbd=True,
 )
 _TIGHT = Tolerances(rotation_rad=0.05, opening_frac=0.05, assembly_xy_m=0.005,
@@ -135,16 +144,17 @@ SPLITS: dict[str, SplitConfig] = {
         bench=BenchConfig(observation=_ROBOT, tolerances=_TIGHT, grip_slip=True,
                           attempt_jitter_m=0.003, attempt_jitter_rad=0.04),
         variation=VariationConfig(difficulty=0.4, source_spread=0.4, switch_probability=0.5,
-                                  wide=True, goal_from_source=True, mechanism_switch=0.15),
+                                  wide=True, goal_from_source=True, mechanism_switch=0.3),
     ),
     "challenge": SplitConfig(
         name="challenge",
         bench=BenchConfig(
-            observation=_ROBOT.model_copy(update={"pose_noise_m": 0.0015, "yaw_noise_rad": 0.025,
-                                                  "period_steps": 3, "latency_steps": 2}),
+            observation=_ROBOT.model_copy(update={
+                "pose_noise_m": 0.0015, "yaw_noise_rad": 0.025, "pose_bias_m": 0.0025,
+                "yaw_bias_rad": 0.035, "period_steps": 3, "latency_steps": 2}),
             tolerances=_TIGHT, grip_slip=True, attempt_jitter_m=0.004, attempt_jitter_rad=0.06),
         variation=VariationConfig(difficulty=0.7, source_spread=0.5, switch_probability=0.6,
-                                  wide=True, goal_from_source=True, mechanism_switch=0.25),
+                                  wide=True, goal_from_source=True, mechanism_switch=0.45),
     ),
     "dev": SplitConfig(
         name="dev",

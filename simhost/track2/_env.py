@@ -237,8 +237,9 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         """Put the instance back in its initial state (jittered as the config says).
 
         ``options={"params": InstanceParams}`` switches to another instance first. ``seed``
-        seeds ``self.np_random``, which draws this reset's jitter and the episode's
-        observation noise.
+        seeds ``self.np_random``, which draws this reset's jitter and the observation noise.
+        The parts' measurement biases come from ``options["bias_seed"]`` when given (an
+        episode keeps its biases over its attempts), else from ``self.np_random``.
         """
         super().reset(seed=seed)
         if options and options.get("params") is not None:
@@ -273,7 +274,8 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.episode += 1
         self._warn = np.array([d.warning[i].number for i in range(len(_WARNINGS))])
         self.sim.refresh()
-        self.channel.reset(rng)
+        bias_seed = (options or {}).get("bias_seed")
+        self.channel.reset(rng, None if bias_seed is None else np.random.default_rng(bias_seed))
         self._images = {}
         if self.render_rgbd:
             self._images = self._render_obs()

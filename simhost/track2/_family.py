@@ -332,30 +332,64 @@ def idle(env: BenchEnv, width: float | None = None) -> Plan:
         yield action(np.zeros(3), 0.0, w)
 
 
-def radial(n: int, r: float, t: float, height: float, z0: float = 0.0) -> list[str]:
-    """``n`` wall boxes of thickness ``t`` around a regular n-gon of inradius ``r``."""
-    half_len = (r + t) * math.tan(math.pi / n) + 0.001
-    out = []
-    for k in range(n):
-        ang = 2 * math.pi * k / n
-        cx, cy = (r + t / 2) * math.cos(ang), (r + t / 2) * math.sin(ang)
+CHAMFER_T = 0.003  # thickness of a chamfer plate (m)
+
+
+def _wall(ang: float, inner: float, t: float, half_len: float, height: float, z0: float,
+          chamfer: float) -> list[str]:
+    """One straight wall whose inner face lies ``inner`` from the centre, in direction
+    ``ang``; with ``chamfer`` > 0 its top inner edge is a 45-degree slope ``chamfer`` wide
+    that guides a part sliding in."""
+    c, s = math.cos(ang), math.sin(ang)
+    straight = height - chamfer
+    cx, cz = inner + t / 2, z0 + straight / 2
+    out = [
+        f'<geom class="fixture" type="box" pos="{cx * c:.5f} {cx * s:.5f} {cz:.5f}" '
+        f'size="{t / 2:.5f} {half_len:.5f} {straight / 2:.5f}" euler="0 0 {ang:.6f}"/>'
+    ]
+    if chamfer > 0:
+        off = CHAMFER_T / (2 * math.sqrt(2))
+        px, pz = inner + chamfer / 2 + off, z0 + height - chamfer / 2 - off
+        qz = (math.cos(ang / 2), 0.0, 0.0, math.sin(ang / 2))
+        qy = (math.cos(-math.pi / 8), 0.0, math.sin(-math.pi / 8), 0.0)
+        w1, x1, y1, z1 = qz
+        w2, x2, y2, z2 = qy
+        q = (w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+             w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2)
         out.append(
-            f'<geom class="fixture" type="box" pos="{cx:.5f} {cy:.5f} {z0 + height / 2:.5f}" '
-            f'size="{t / 2:.5f} {half_len:.5f} {height / 2:.5f}" '
-            f'euler="0 0 {ang:.6f}"/>'
+            f'<geom class="fixture" type="box" pos="{px * c:.5f} {px * s:.5f} {pz:.5f}" '
+            f'size="{chamfer * math.sqrt(2) / 2:.5f} {half_len:.5f} {CHAMFER_T / 2:.5f}" '
+            f'quat="{q[0]:.6f} {q[1]:.6f} {q[2]:.6f} {q[3]:.6f}"/>'
         )
     return out
 
 
-def box_walls(ia: float, ib: float, t: float, height: float, z0: float = 0.0) -> list[str]:
+def radial(n: int, r: float, t: float, height: float, z0: float = 0.0,
+           chamfer: float = 0.0) -> list[str]:
+    """``n`` wall boxes of thickness ``t`` around a regular n-gon of inradius ``r``."""
+    half_len = (r + t) * math.tan(math.pi / n) + 0.001
+    out: list[str] = []
+    for k in range(n):
+        out += _wall(2 * math.pi * k / n, r, t, half_len, height, z0, chamfer)
+    return out
+
+
+def box_walls(ia: float, ib: float, t: float, height: float, z0: float = 0.0,
+              chamfer: float = 0.0) -> list[str]:
     """Four wall boxes around a rectangle of inner half-sizes ``ia`` x ``ib``."""
-    zc, hz = z0 + height / 2, height / 2
-    return [
-        f'<geom class="fixture" type="box" pos="{sx * (ia + t / 2):.5f} 0 {zc:.5f}" '
-        f'size="{t / 2:.5f} {ib + t:.5f} {hz:.5f}"/>'
-        for sx in (-1, 1)
-    ] + [
-        f'<geom class="fixture" type="box" pos="0 {sy * (ib + t / 2):.5f} {zc:.5f}" '
-        f'size="{ia:.5f} {t / 2:.5f} {hz:.5f}"/>'
-        for sy in (-1, 1)
-    ]
+    out: list[str] = []
+    for ang, inner, half in ((0.0, ia, ib + t), (math.pi, ia, ib + t),
+                             (math.pi / 2, ib, ia), (-math.pi / 2, ib, ia)):
+        out += _wall(ang, inner, t, half, height, z0, chamfer)
+    return out
+
+
+def spiral(spacing: float, rings: int) -> list[np.ndarray]:
+    """Search offsets on rings of radius ``spacing``, ``2 spacing``, ... (6 k points on ring
+    k), nearest first."""
+    out = []
+    for k in range(1, rings + 1):
+        for j in range(6 * k):
+            a = 2 * math.pi * j / (6 * k) + 0.5 * k
+            out.append(k * spacing * np.array([math.cos(a), math.sin(a)]))
+    return out

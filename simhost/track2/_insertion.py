@@ -35,6 +35,7 @@ from ._family import (
     pick,
     radial,
     servo,
+    spiral,
     truth_doc,
     var,
 )
@@ -44,6 +45,7 @@ if TYPE_CHECKING:
     from ._env import BenchEnv
 
 WALL = 0.015
+CHAMFER = 0.002  # the hole's rim is chamfered: it guides a peg up to 2 mm off centre
 PERIODS = {"square": math.pi / 2, "rect": math.pi, "round": 2 * math.pi, "hex": math.pi / 3}
 
 
@@ -71,7 +73,7 @@ class InsertionTask(FamilyTask):
         assets = ""
         if self.shape == "round":
             peg = f'<geom type="cylinder" size="{self.a:.5f} {self.h / 2:.5f}"'
-            walls = radial(8, self.a + self.c / 2, WALL, self.depth)
+            walls = radial(8, self.a + self.c / 2, WALL, self.depth, chamfer=CHAMFER)
         elif self.shape == "hex":
             r = self.a / math.cos(math.pi / 6)
             verts = " ".join(
@@ -80,10 +82,11 @@ class InsertionTask(FamilyTask):
                 for i in range(6) for zz in (-self.h / 2, self.h / 2))
             assets = f'<mesh name="peg" vertex="{verts}"/>'
             peg = '<geom type="mesh" mesh="peg"'
-            walls = radial(6, self.a + self.c / 2, WALL, self.depth)
+            walls = radial(6, self.a + self.c / 2, WALL, self.depth, chamfer=CHAMFER)
         else:
             peg = f'<geom type="box" size="{self.a:.5f} {self.b:.5f} {self.h / 2:.5f}"'
-            walls = box_walls(self.a + self.c / 2, self.b + self.c / 2, WALL, self.depth)
+            walls = box_walls(self.a + self.c / 2, self.b + self.c / 2, WALL, self.depth,
+                              chamfer=CHAMFER)
         peg += (f' density="{p.f("density"):.2f}" friction="{fr:.4f} 0.005 0.0001" '
                 f'rgba="0.85 0.45 0.2 1"/>')
         return Scene(
@@ -232,31 +235,47 @@ class InsertionTask(FamilyTask):
             ee, bot = env.sim.ee(), self.bottom(e)
             goal_xy = ee[:2] + self.hole_xy(e) - bot[:2]
             yield from move(env, np.array([*goal_xy, lift]), yaw0 + turn, 0.0, tol=0.003)
-        for k in range(6):
-            yield from hold(env, 4, 0.0)  # let the estimates settle while still
-            yield from self._align(env, lift, SPIRAL[k] * max(self.c, 0.001))
-            yield from self._descend(env)
-            if self.bottom(e)[2] < self.depth - 0.002:
-                break
-            ee = env.sim.ee()
-            yield from move(env, np.array([*ee[:2], lift]), ee[3], 0.0, tol=0.003)
+        yield from hold(env, 4, 0.0)  # let the estimates settle while still
+        yield from self._align(env, lift)
+        yield from self._descend(env)
+        if self.bottom(e)[2] > self.depth - 0.002:  # stuck on the rim: search around
+            yield from self._search(env)
         yield from grip(env, open_w, 6)
         ee = env.sim.ee()
         yield from move(env, np.array([*ee[:2], ee[2] + 0.05]), ee[3], open_w, tol=0.005)
         yield from idle(env, open_w)
 
-    def _align(self, env: BenchEnv, z: float, offset: np.ndarray) -> Plan:
-        """Servo the peg's bottom over the hole centre (plus a search ``offset``) and its yaw
-        onto the hole's."""
+    def _align(self, env: BenchEnv, z: float) -> Plan:
+        """Servo the peg's bottom over the hole centre and its yaw onto the hole's."""
         e = self.e
 
         def error() -> tuple[np.ndarray, float]:
-            err = self.hole_xy(e) + offset - self.bottom(e)[:2]
+            err = self.hole_xy(e) - self.bottom(e)[:2]
             if self.shape == "round":
                 return err, 0.0
             return err, wrap(nearest_yaw(self.hole_yaw(e) - e.yaw(self.peg), self.period))
 
         yield from servo(env, error, z)
+
+    def _search(self, env: BenchEnv) -> Plan:
+        """Probe around the aligned position, nearest points first, until the peg drops in:
+        what perception cannot settle (a part's pose error), contact does."""
+        e = self.e
+        ee = env.sim.ee()
+        centre = ee[:2].copy()
+        hover = ee[2] - (self.bottom(e)[2] - (self.depth + 0.004))
+        spacing = 0.8 * (CHAMFER + self.c / 2)
+        for off in spiral(spacing, 4):
+            yield from move(env, np.array([*(centre + off), hover]), ee[3], 0.0, tol=0.0015,
+                            max_steps=6)
+            for _ in range(4):  # press down a little; inside, the peg keeps going
+                now = env.sim.ee()[2]
+                yield from move(env, np.array([*(centre + off), now - 0.005]), ee[3], 0.0,
+                                max_steps=1)
+            if self.bottom(e)[2] < self.depth - 0.003:
+                yield from self._descend(env)
+                return
+            yield from move(env, np.array([*(centre + off), hover]), ee[3], 0.0, max_steps=2)
 
     def _descend(self, env: BenchEnv) -> Plan:
         """Lower the peg: servo xy above the rim, hold xy once inside, stop when stuck."""
@@ -272,8 +291,3 @@ class InsertionTask(FamilyTask):
             stuck = stuck + 1 if env.sim.ee()[2] > prev - 0.0005 else 0
             if stuck >= 4:
                 return
-
-
-SPIRAL = [np.array([0.0, 0.0])] + [
-    0.6 * np.array([math.cos(a), math.sin(a)]) for a in np.arange(5) * 2 * math.pi / 5]
-"""Search offsets of the insertion retries, in units of the clearance."""

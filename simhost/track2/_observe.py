@@ -4,10 +4,10 @@
 ``parts`` observation under an :class:`~simhost.track2.ObservationConfig`:
 
 - every ``period_steps`` control steps it *measures*: each row shows the part as it was
-  ``latency_steps`` steps earlier, its position plus Gaussian noise per axis, its yaw plus
-  Gaussian noise and, when ``symmetric_yaw``, reported modulo the part's symmetry period
-  (the tilt is kept); the ``joint`` column is the true joint value only with
-  ``joint_readings``;
+  ``latency_steps`` steps earlier, its position plus the part's bias (drawn once per
+  episode) plus Gaussian noise per axis, its yaw likewise and, when ``symmetric_yaw``,
+  reported modulo the part's symmetry period (the tilt is kept); the ``joint`` column is
+  the true joint value only with ``joint_readings``;
 - a row whose part the gripper hides from the camera at that time (``occlusion``: every
   line of sight from the ``overview`` camera to the part's sample points — the centre, top
   and bottom of each of its geoms, or the site a row shows — meets a gripper geom first)
@@ -94,10 +94,16 @@ class PartsChannel:
         self.rows = np.zeros((self.n, len(PART_FIELDS)))
         self._measured_at = np.zeros(self.n, dtype=np.int64)
         self._step = 0
+        self._bias_p = np.zeros((self.n, 3))
+        self._bias_y = np.zeros(self.n)
 
     # ------------------------------------------------------------------ public
-    def reset(self, rng: np.random.Generator) -> None:
-        """Measure every part from the reset state."""
+    def reset(self, rng: np.random.Generator, bias_rng: np.random.Generator | None = None) -> None:
+        """Draw the parts' biases (from ``bias_rng``, else ``rng``) and measure every part from
+        the reset state."""
+        cfg, src = self.cfg, bias_rng or rng
+        self._bias_p = src.normal(0.0, 1.0, (self.n, 3)) * cfg.pose_bias_m * [1.0, 1.0, 0.5]
+        self._bias_y = src.normal(0.0, 1.0, self.n) * cfg.yaw_bias_rad
         self._history.clear()
         self._step = 0
         truth = self.task.parts()
@@ -131,8 +137,8 @@ class PartsChannel:
 
     def _measure(self, rng: np.random.Generator, truth: np.ndarray, hidden: np.ndarray) -> None:
         cfg = self.cfg
-        noise_p = rng.normal(0.0, 1.0, (self.n, 3)) * cfg.pose_noise_m
-        noise_y = rng.normal(0.0, 1.0, self.n) * cfg.yaw_noise_rad
+        noise_p = rng.normal(0.0, 1.0, (self.n, 3)) * cfg.pose_noise_m + self._bias_p
+        noise_y = rng.normal(0.0, 1.0, self.n) * cfg.yaw_noise_rad + self._bias_y
         for i in range(self.n):
             row = truth[i]
             if row[0] < 0.5 or hidden[i]:
@@ -141,7 +147,7 @@ class PartsChannel:
             yaw = yaw_of(q) + noise_y[i]
             if cfg.symmetric_yaw:
                 yaw = canonical_yaw(yaw, self._periods[i])
-            if cfg.yaw_noise_rad > 0 or cfg.symmetric_yaw:
+            if cfg.yaw_noise_rad > 0 or cfg.yaw_bias_rad > 0 or cfg.symmetric_yaw:
                 q = with_yaw(q, yaw)
             self.rows[i, :9] = (1.0, *(row[1:4] + noise_p[i]), *q,
                                 row[8] if cfg.joint_readings else 0.0)

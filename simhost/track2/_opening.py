@@ -4,9 +4,11 @@ Parts rows: ``mover`` (the drawer, cover or lid; its ``joint`` is the slide posi
 the swivel angle in rad) and ``housing`` (the fixed cabinet). The mechanism's frame sits at
 ``(x, y)`` turned by ``yaw``; its front faces -x. A drawer slides out along the frame's -x and
 has a bar handle on standoffs; a cover slides along +y with a knob on top; a lid swivels about
-a vertical pin at one corner with a knob at the opposite corner. Joints have damping and dry
-friction, so a mechanism stays where it is left (a lid's damping and dry friction are the
-table's values times ``LID_LEVER`` = 0.1 m, i.e. the same force felt at its knob).
+a vertical pin at one corner with a knob at the opposite corner. A ``mirror``-ed cover slides
+along -y, a mirrored lid is hinged at the other corner and swings clockwise. Joints have
+damping and dry friction, so a mechanism stays where it is left (a lid's damping and dry
+friction are the table's values times ``LID_LEVER`` = 0.1 m, i.e. the same force felt at its
+knob).
 
 Opening fraction = joint / range. ``mode == "open"``: starts at ``start_frac`` (jittered per
 attempt), goal ``goal_frac``; ``mode == "close"``: starts at ``1 - start_frac``, goal
@@ -68,6 +70,7 @@ class OpeningTask(FamilyTask):
         self.range = p.f("swing") if self.kind == "swivel_lid" else p.f("travel")
         self.k = p.f("handle_scale")
         self.open_mode = p.value("mode") == "open"
+        self.sy = -1.0 if p.value("mirror") and self.kind != "drawer" else 1.0
         start, goal = p.f("start_frac"), p.f("goal_frac")
         self.start, self.goal_frac = (start, goal) if self.open_mode else (1 - start, 1 - goal)
         self.tolerance = self.tol.opening_frac
@@ -107,19 +110,20 @@ class OpeningTask(FamilyTask):
             child = f'<body name="mover" pos="0 0 0">{inner}</body>'
         else:
             housing = '<geom class="fixture" type="box" pos="0 0 0.025" size="0.06 0.06 0.025"/>'
+            sy = self.sy
             if self.kind == "sliding_cover":
                 inner = (
-                    f'<joint name="mover" type="slide" axis="0 1 0" {joint}/>'
+                    f'<joint name="mover" type="slide" axis="0 {sy:g} 0" {joint}/>'
                     + plate.format(x=0, y=0)
-                    + knob.format(x=0, y=-0.03)
+                    + knob.format(x=0, y=-0.03 * sy)
                 )
                 child = f'<body name="mover" pos="0 0 0.05">{inner}</body>'
             else:
-                px, py = LID_PIVOT
+                px, py = LID_PIVOT[0], LID_PIVOT[1] * sy
                 inner = (
-                    f'<joint name="mover" type="hinge" axis="0 0 1" {joint}/>'
+                    f'<joint name="mover" type="hinge" axis="0 0 {sy:g}" {joint}/>'
                     + plate.format(x=-px, y=-py)
-                    + knob.format(x=LID_KNOB[0], y=LID_KNOB[1])
+                    + knob.format(x=LID_KNOB[0], y=LID_KNOB[1] * sy)
                 )
                 child = f'<body name="mover" pos="{px} {py} 0.05">{inner}</body>'
         return Scene(
@@ -163,8 +167,8 @@ class OpeningTask(FamilyTask):
         if self.kind == "drawer":
             return float(-local[0])
         if self.kind == "sliding_cover":
-            return float(local[1])
-        return float(wrap(eye.yaw(self.mover) - h_yaw))
+            return float(local[1] * self.sy)
+        return float(wrap(eye.yaw(self.mover) - h_yaw) * self.sy)
 
     def frac(self) -> float:
         return self.q() / self.range
@@ -190,10 +194,12 @@ class OpeningTask(FamilyTask):
         if self.kind == "drawer":
             local, z, hand = (BAR_X - q, 0.0), HANDLE_Z - 0.004, yaw + math.pi / 2
         elif self.kind == "sliding_cover":
-            local, z, hand = (0.0, -0.03 + q), 0.058 + 0.003, yaw
+            local, z, hand = (0.0, self.sy * (-0.03 + q)), 0.058 + 0.003, yaw
         else:
-            local = np.array(LID_PIVOT) + rot2(q, LID_KNOB)
-            z, hand = 0.058 + 0.003, yaw + q
+            sy = self.sy
+            local = np.array([LID_PIVOT[0], sy * LID_PIVOT[1]]) + rot2(
+                sy * q, (LID_KNOB[0], sy * LID_KNOB[1]))
+            z, hand = 0.058 + 0.003, yaw + sy * q
         xy = origin + rot2(yaw, local)
         return np.array([xy[0], xy[1], z]), hand
 
@@ -235,6 +241,7 @@ class OpeningTask(FamilyTask):
             ],
             {
                 "mechanism": self.kind,
+                "mirrored": self.sy < 0,
                 "joint_type": joint[self.kind],
                 "joint_range": round(self.range, 6),
                 "direction": verb,

@@ -203,7 +203,7 @@ def rotation(v: View, hints: dict[str, Any]) -> Plan:
     axis, z = v.pos(0)[:2], v.pos(0)[2]
     turn = float(hints.get("turn", 1.0))
     theta = v.yaw(0)
-    yaw0 = nearest_yaw(theta, math.pi / 3, -turn / 2)
+    yaw0 = nearest_yaw(theta, math.pi, -turn / 2)  # pi: right for bars and nuts alike
     tcp_z = z - 0.005
     yield from move(v, [*axis, z + 0.06], yaw0, 0.08, tol=0.004)
     yield from move(v, [*axis, tcp_z], yaw0, 0.08, speed=0.6)

@@ -17,11 +17,12 @@
   instance (measured: the hardest settings raised scores), so the same outcome scores the
   same at any distance here, and distance shows only in the leaderboard's metrics.
 - ``task_model``: ``task_model.json`` (the final one, else the latest valid stage snapshot)
-  against the hidden instance's truth: 0 if the family is wrong or missing, else the mean of
-  five parts — stages (longest common subsequence over the longer list), variables (F1 of
-  names), constraints, preconditions (Jaccard of predicates per stage) and success criteria
-  (op and value), each summed over the truth's items and divided by the larger of the two
-  counts, so padding a model with guesses costs. Values compare by type: equal bools and
+  against the hidden instance's truth: 0 if the family is wrong or missing, else a weighted
+  mean of five parts — stages (longest common subsequence over the longer list), variables
+  (F1 of names), preconditions (Jaccard of predicates per stage), each 0.1, and constraints
+  and success criteria (op and value), each 0.35: the names are the public vocabulary, the
+  values are what must be inferred. Each part is summed over the truth's items and divided by
+  the larger of the two counts, so padding a model with guesses costs. Values compare by type: equal bools and
   strings (case-insensitive), numbers by ``1 - |error| / (0.2 |truth| + 0.002)``, lists
   element by element. Goals in the truth are relative to the attempt's start (a turn, not an
   absolute angle), so they can be inferred from the demonstration.
@@ -46,6 +47,8 @@ WEIGHTS = {"success": 0.45, "adaptation": 0.20, "generalization": 0.15, "task_mo
            "stability": 0.10}
 OFFICIAL_ADAPT_S = (5 + 20) * 60.0
 MODEL_PARTS = ("stages", "variables", "constraints", "preconditions", "success")
+MODEL_WEIGHTS = {"stages": 0.1, "variables": 0.1, "constraints": 0.35, "preconditions": 0.1,
+                 "success": 0.35}
 
 
 def close(pred: Any, true: Any) -> float:
@@ -117,9 +120,9 @@ def model_parts(model: TaskModel | None, truth: TaskTruth) -> dict[str, float]:
 
 
 def model_score(model: TaskModel | None, truth: TaskTruth) -> float:
-    """``S_model`` in [0, 1]."""
+    """``S_model`` in [0, 1]: the weighted mean of the parts (``MODEL_WEIGHTS``)."""
     parts = model_parts(model, truth)
-    return sum(parts.values()) / len(parts)
+    return sum(MODEL_WEIGHTS[k] * v for k, v in parts.items())
 
 
 def adaptation(o: Track2Outcome, granted_s: float = OFFICIAL_ADAPT_S) -> float:

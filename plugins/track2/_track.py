@@ -117,7 +117,7 @@ class Track2(TrackPlugin):
             "success": float(o.success),
             "adaptation": _scoring.adaptation(o, _scoring.granted_adapt_s(data.stage_budgets_s)),
             "generalization": _scoring.generalization(o),
-            "task_model": sum(parts.values()) / len(parts),
+            "task_model": sum(_scoring.MODEL_WEIGHTS[k] * v for k, v in parts.items()),
             "stability": _scoring.stability(o, invalid),
         }
         total = sum(self.weights[k] * v for k, v in components.items())

@@ -416,6 +416,7 @@ class ToolUseTask(FamilyTask):
             ee, tip = env.sim.ee(), e.site(self.tip_site)
             dy = puck[1] - tip[1]
             speed = 0.008 if puck[0] - goal_x > 0.03 else 0.003
-            goal = np.array([ee[0] - speed, ee[1] + 0.5 * dy, ee[2] - (tip[2] - 0.003)])
+            z = max(0.012, ee[2] - (tip[2] - 0.003))  # never press the handle into the table
+            goal = np.array([ee[0] - speed, ee[1] + 0.5 * dy, z])
             yield from move(env, goal, yaw, 0.0, max_steps=1)
         yield from hold(env, 5, 0.0)

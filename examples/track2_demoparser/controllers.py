@@ -363,7 +363,7 @@ def tool_use(v: View, hints: dict[str, Any]) -> Plan:
         depth = 0.054
         yield from pick(v, top, yaw0, 0.045, depth, top[2] - depth + 0.075)
         target = v.pos(4)[:2]
-        z = 0.12
+        z = 0.10 + (v.ee()[2] - v.pos(tip)[2])  # the tip 10 cm up clears any well's walls
         for _ in range(3):
             ee = v.ee()
             yield from move(v, [*(ee[:2] + target - v.pos(tip)[:2]), z], ee[3], 0.0, tol=0.003)

@@ -169,8 +169,10 @@ BUILDERS = {"insertion": _insertion, "rotation": _rotation, "assembly": _assembl
 
 def task_model(family: str, view: View, hints: dict[str, Any], measured: dict[str, Any],
                step: int, *, dev: bool) -> TaskModel:
-    """The ``task_model.json`` document (schema ``eagc-task-model/v1``)."""
+    """The ``task_model.json`` document (schema ``eagc-task-model/v1``); constraints in
+    ``measured["constraints"]`` are added as they are."""
     m = BUILDERS[family](view, hints, measured, dev)
+    m["constraints"] = {**m["constraints"], **measured.get("constraints", {})}
 
     def rnd(x: Any) -> Any:
         if isinstance(x, float):

@@ -163,7 +163,8 @@ def write_demo_packet(
         steps = sorted(shots)
         for k in steps:
             (out / "frames" / f"{k:06d}.png").write_bytes(encode_png(shots[k][0]))
-        arrays["frame_depth"] = np.stack([shots[k][1] for k in steps]).astype(np.float32)
+        depth = np.stack([shots[k][1] for k in steps])
+        arrays["frame_depth"] = np.clip(depth, 0.0, 10.0).astype(np.float32)  # as observed
         frame_spec = FrameSpec(height=size[0], width=size[1], steps=steps, depth=True)
     np.savez_compressed(out / "trajectory.npz", **arrays)  # type: ignore[arg-type]
     manifest = DemoManifest(

@@ -476,7 +476,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         if "goal" in space:
             out["goal"] = np.clip(self.task.goal(), -10.0, 10.0)
         obs = {k: v.astype(np.float32) for k, v in out.items()}
-        obs.update(self._images)
+        obs.update({k: v.copy() for k, v in self._images.items()})
         return obs
 
     def _render_obs(self) -> dict[str, np.ndarray]:

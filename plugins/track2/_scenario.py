@@ -127,7 +127,7 @@ def expert_steps(instance_json: str, bench_json: str, seed: int, bias_seed: int 
     from simhost.track2 import BenchEnv, ScriptedExpert
 
     bench = BenchConfig.model_validate_json(bench_json)
-    if observed and not bench.observation.parts:  # the expert reads the parts rows
+    if not bench.observation.parts:  # the observation expert reads the parts rows
         bench = bench.model_copy(update={"observation": bench.observation.model_copy(
             update={"parts": True})})
     env = BenchEnv(InstanceParams.model_validate_json(instance_json), config=bench,

@@ -12,12 +12,13 @@ and its stages.
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 from pathlib import Path
 
 import numpy as np
-from policy import Policy, state
+from policy import Policy
 
 from schemas import DemoManifest, TaskModel
 from simhost.agent import OutputFiles, RemoteEnv
@@ -29,7 +30,8 @@ HOLD_AFTER = 10
 
 def main() -> int:
     files = OutputFiles()
-    weights = np.load(HERE / "policy.npz", allow_pickle=False)
+    weights = dict(np.load(HERE / "policy.npz", allow_pickle=False))
+    attention = json.loads(weights.pop("attention").tobytes())
     steps = 0
     with RemoteEnv() as env:
         env.hello(agent="eagc-track2-imitation/1")
@@ -44,8 +46,9 @@ def main() -> int:
                     man = DemoManifest.model_validate_json((folder / "manifest.json").read_text())
                     with np.load(folder / "trajectory.npz", allow_pickle=False) as npz:
                         prop, parts, acts = npz["obs_proprio"], npz["obs_parts"], npz["actions"]
-                    states = np.stack([state(p, q) for p, q in zip(prop, parts, strict=True)])
-                    policy = Policy(weights[man.family], states[:-1], acts)
+                    stages = [(ks.name, ks.start, ks.end) for ks in man.key_stages]
+                    policy = Policy(weights[man.family], attention[man.family], prop, parts,
+                                    acts, stages)
                     files.write(TaskModel(step=steps, family=man.family, stages=man.stage_names))
                     files.log(step=steps, stage=ts.stage, event="plan",
                               data={"demo_steps": man.num_steps})

@@ -22,10 +22,10 @@
   (F1 of names), preconditions (Jaccard of predicates per stage), each 0.1, and constraints
   and success criteria (op and value), each 0.35: the names are the public vocabulary, the
   values are what must be inferred. Each part is summed over the truth's items and divided by
-  the larger of the two counts, so padding a model with guesses costs. Values compare by type: equal bools and
-  strings (case-insensitive), numbers by ``1 - |error| / (0.2 |truth| + 0.002)``, lists
-  element by element. Goals in the truth are relative to the attempt's start (a turn, not an
-  absolute angle), so they can be inferred from the demonstration.
+  the larger of the two counts, so padding a model with guesses costs. Values compare by
+  type: equal bools and strings (case-insensitive), numbers by ``1 - |error| / (0.2 |truth|
+  + 0.002)``, lists element by element. Goals in the truth are relative to the attempt's
+  start (a turn, not an absolute angle), so they can be inferred from the demonstration.
 - ``stability``: ``gain * (1 - penalty)``, ``gain`` the generalization's progress (no credit
   for not moving): 0.25 per drop, 0.1 per simulator warning, plus 2x the fraction of steps
   with excess contact force (> 25 N), 1x the fraction at a hand joint limit, 1x the fraction

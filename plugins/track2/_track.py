@@ -148,6 +148,13 @@ class Track2(TrackPlugin):
 
         return attempt_png(episode_dir, path=out)
 
+    def preview(self, *, seed: int, split: str, out: Path) -> Path:
+        """The demonstrated source beside the hidden instance of ``seed`` in ``split``."""
+        from plugins.track2._picture import preview_png
+
+        scenario = self.make_scenario(seed=seed, split=split, params={"demo_frames": False})
+        return preview_png(scenario, out)
+
     def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:
         """Table VII's row: per-family scores (0–100), their mean (``final``, Avg.), success
         and task-model percentages, mean attempts needed, adaptation and run time in

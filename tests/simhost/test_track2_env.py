@@ -23,8 +23,8 @@ from simhost.track2 import (
     register_envs,
     sample_instance,
 )
-from simhost.track2._observe import canonical_yaw
 from simhost.track2._bench import yaw_of
+from simhost.track2._observe import canonical_yaw
 
 
 def _run(env: BenchEnv, actions: np.ndarray) -> list[str]:

@@ -62,10 +62,10 @@ def main() -> int:
             steps += 1
             if policy.done:
                 after += 1
-                if after > HOLD_AFTER:
-                    ts = env.step({"end_attempt": 1})
-                    continue
-            ts = env.step({"motion": policy(ts.observation)})
+            if after > HOLD_AFTER:  # through the demonstration and not done: give up
+                ts = env.step({"end_attempt": 1})
+            else:
+                ts = env.step({"motion": policy(ts.observation)})
             for m in ts.messages:
                 if m.type == "attempt_result":
                     files.log(step=steps, stage=ts.stage, event="attempt", data=dict(m.data))

@@ -96,11 +96,23 @@ def _cards(key: Sequence[TextColumn], columns: Sequence[TextColumn], limit: int)
     out: list[str] = []
     for r in range(len(key[0].cells)):
         out.append("  ".join(k.cells[r] for k in key))
-        pairs = [f"{c.title} {c.cells[r]}" for c in columns]
-        out.extend(textwrap.wrap(" · ".join(pairs), limit, initial_indent="    ",
-                                 subsequent_indent="    ", break_long_words=False,
-                                 break_on_hyphens=False))
+        out.extend(flow([f"{c.title} {c.cells[r]}" for c in columns], limit, "    "))
     return out
+
+
+def flow(items: Sequence[str], limit: int, indent: str, sep: str = " · ") -> list[str]:
+    """``items`` joined by ``sep`` over as many lines as ``limit`` needs, never splitting
+    an item (one longer than the line gets a line of its own)."""
+    lines: list[str] = []
+    line = ""
+    for item in items:
+        if line and len(indent) + len(line) + len(sep) + len(item) > limit:
+            lines.append(indent + line)
+            line = ""
+        line = f"{line}{sep}{item}" if line else item
+    if line:
+        lines.append(indent + line)
+    return lines
 
 
 def wrapped(text: str, limit: int, indent: str = "") -> list[str]:

@@ -147,8 +147,10 @@ def run_demo(*, runtime: str = "auto", tracks: list[str] | None = None,
             console.print(f"{report.skipped} episode(s) were already in the store: shown, "
                           "not run again (a new --output runs them afresh)", highlight=False)
         _print_leaderboard(spec)
+        print(flush=True)
         for line in where_results(spec, _shown(source)):
             console.print(line, highlight=False, soft_wrap=True)
+        console.print()
         if report.cancelled:
             return ExitCode.CANCELLED
         if report.quarantined:

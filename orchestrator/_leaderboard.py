@@ -160,14 +160,9 @@ class Leaderboard:
 
 
 def cell_text(v: float, fmt: str) -> str:
-    """``fmt`` of ``v``, unless that reads as zero for a value that is not (a latency of
-    0.37 ms with ``{:.0f}``): then two significant digits."""
-    text = fmt.format(v)
-    try:
-        shown = float(text)
-    except ValueError:
-        return text
-    return f"{v:.2g}" if shown == 0 and v != 0 else text
+    """``fmt`` of ``v``, except between 0 and 1 (a latency of 0.37 ms under ``{:.0f}``
+    would read 0): there two significant digits, ``0.37``."""
+    return f"{v:.2g}" if 0 < abs(v) < 1 else fmt.format(v)
 
 
 def failure_lines(f: FailureLine, limit: int, *, with_team: bool = True) -> list[str]:

@@ -96,6 +96,8 @@ class TeamReport:
             if out:
                 lines.append("    last lines the agent printed:")
                 lines += [f"      {line}" for line in out]
+            elif tail:
+                lines.append("    the agent printed nothing")
         return "\n".join(lines) + "\n"
 
 

@@ -16,6 +16,7 @@ writes it beside its results (``DIR/demo_<track>.yaml``) and names that file ins
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -81,7 +82,8 @@ def _as_local(spec: Any) -> Any:
     from orchestrator._images import example_agents
 
     folders = example_agents()
-    subs = tuple(s.model_copy(update={"image": f"python {folders[s.image] / 'agent.py'}"})
+    python = sys.executable or "python3"
+    subs = tuple(s.model_copy(update={"image": f"{python} {folders[s.image] / 'agent.py'}"})
                  for s in spec.submissions if s.image in folders)
     return spec.model_copy(update={"name": f"{spec.name}-local", "runtime": "local",
                                    "submissions": subs})

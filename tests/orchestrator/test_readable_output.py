@@ -240,3 +240,16 @@ def test_every_example_agent_is_in_its_tracks_demo() -> None:
                 if folder.name.startswith(f"{track}_")}
         assert mine <= images, f"{path.name} lacks {sorted(mine - images)}"
         assert spec.limits.max_steps_per_stage is not None  # outcomes independent of speed
+
+
+def test_the_contract_check_names_the_files_problem_once() -> None:
+    from orchestrator._agentcheck import contract_checks
+
+    plugin = load_track("sanity")
+    _, checks = plugin.verify_files({"world_model.json": b'{"rooms": 3}',
+                                     "episode_log.jsonl": b'{"step": 0, "event": "note"}\n'})
+    result = _result("sanity", "standard", 0.2, files=tuple(checks),
+                     metrics={"task_success": 0.0})
+    (files,) = [c for c in contract_checks(result) if c.name.startswith("its files")]
+    assert not files.ok
+    assert files.detail == "world_model.json: rooms: Input should be a valid list"

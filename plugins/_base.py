@@ -189,7 +189,7 @@ class TrackPlugin(ABC):
                     parsed[fname] = parse_json(data, rule.model, source=fname)
                 checks.append(FileCheck(name=fname, ok=True, size=len(data)))
             except SchemaError as e:
-                checks.append(FileCheck(name=fname, ok=False, size=len(data), reason=str(e)))
+                checks.append(FileCheck(name=fname, ok=False, size=len(data), reason=e.detail))
         return parsed, checks
 
     def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:

@@ -30,9 +30,17 @@ class SchemaError(EagcError, ValueError):
     @property
     def summary(self) -> str:
         """One line: the source, its first problem and how many more there are."""
+        return f"{self.source}: {self._first}"
+
+    @property
+    def detail(self) -> str:
+        """The message without the source's name (for a report that names it already)."""
+        return f"{self._first}\n" + "\n".join(f"  - {p}" for p in self._shown)
+
+    @property
+    def _first(self) -> str:
         first, more = self.problems[0], len(self.problems) - 1
-        tail = f" (and {more} more problem{'s' if more > 1 else ''})" if more else ""
-        return f"{self.source}: {first}{tail}"
+        return first + (f" (and {more} more problem{'s' if more > 1 else ''})" if more else "")
 
     @property
     def _shown(self) -> list[str]:

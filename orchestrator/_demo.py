@@ -56,7 +56,13 @@ def _load(path: Path, output: Path | None) -> Any:
     from schemas import CampaignSpec, SchemaError, parse_json
 
     if output is None:
-        return load_campaign(path)
+        try:
+            return load_campaign(path)
+        except SchemaError as e:
+            if any(p.startswith("output:") for p in e.problems):
+                raise UsageError(f"{e.summary}: give one with `eagc demo --output DIR`"
+                                 ) from None
+            raise
     try:
         doc = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as e:

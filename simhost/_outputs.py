@@ -9,7 +9,7 @@ are written, so that an agent learns of a bad file at once instead of from its s
     files = OutputFiles()                      # $EAGC_OUTPUT, /output in a container
     files.write(WorldModel(...))               # -> world_model.json
     files.log(step=12, stage="execution", event="exception_detected",
-              exception_type="door_locked")    # -> one line of episode_log.jsonl
+              exception_type="door_lock")      # -> one line of episode_log.jsonl
 """
 
 from __future__ import annotations

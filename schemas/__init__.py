@@ -8,7 +8,7 @@ regenerates them; a test fails on drift).
 from schemas._campaign import CampaignSpec, Limits, Split, Submission
 from schemas._contract import CONTAINER, ContainerContract, unix_endpoint
 from schemas._demo import DEMO_VERSION, Annotation, ArraySpec, DemoManifest, FrameSpec, KeyStage
-from schemas._errors import SchemaError
+from schemas._errors import EagcError, SchemaError
 from schemas._files import (
     TASK_MODEL_VERSION,
     WORLD_MODEL_VERSION,
@@ -26,7 +26,7 @@ from schemas._files import (
     TaskModel,
     WorldModel,
 )
-from schemas._io import load_json, parse_json, parse_jsonl
+from schemas._io import load_json, parse_episode_log, parse_json, parse_jsonl
 from schemas._protocol import (
     PROTOCOL_VERSION,
     ActionResult,
@@ -73,6 +73,7 @@ __all__ = [
     "ContainerState",
     "DemoManifest",
     "DoorState",
+    "EagcError",
     "EndStage",
     "EpisodeResult",
     "EpisodeStats",
@@ -108,6 +109,7 @@ __all__ = [
     "TensorMeta",
     "WorldModel",
     "load_json",
+    "parse_episode_log",
     "parse_json",
     "parse_jsonl",
     "unix_endpoint",

@@ -5,8 +5,8 @@ moves), ``execution`` 30 min with up to three attempts (see ``_episode``). The p
 (``eagc-demo/v2``) is written by ``write_inputs`` into the read-only input folder
 (``/input/demo`` in the container). Splits (``simhost.track2.SPLITS``): the official
 ``standard`` and ``challenge`` (a robot's observation, a goal defined by the demonstration,
-wide variation) and the public ``dev`` (today's level); a campaign split of another name
-sets ``params.preset``. Families are balanced by the episode's index within its split
+wide variation; the final score's splits) and the public ``dev`` (today's level, an extra
+split); a campaign split of another name sets ``params.preset``. Families are balanced by the episode's index within its split
 (``index mod 5``). Files: ``task_model.json`` and ``episode_log.jsonl``, both required.
 Score: eq. (3), see ``_scoring``. Leaderboard: Table VII's columns; the average is the mean
 over families of each family's mean score, as in Table VII.
@@ -60,8 +60,8 @@ class Track2(TrackPlugin):
     splits = {
         "standard": (0.5, {}),
         "challenge": (0.5, {}),
-        "dev": (1.0, {}),
     }
+    extra_splits = ("dev",)
     columns = (
         *(Column(k, t) for k, t in FAMILY_COLUMNS),
         Column("final", "Avg. Score"),

@@ -258,7 +258,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         joint_jitter = float(np.clip(rng.normal(0.0, 1.0), -JITTER_CLIP, JITTER_CLIP))
         scale = np.array([self.config.attempt_jitter_m, self.config.attempt_jitter_m,
                           self.config.attempt_jitter_rad])
-        self._offsets = np.clip(raw, -JITTER_CLIP, JITTER_CLIP) * scale
+        self._offsets = np.clip(raw, -JITTER_CLIP, JITTER_CLIP) * scale + 0.0  # no -0.0
         mujoco.mj_resetData(m, d)
         self._apply_offsets()
         self._target = HOME.copy()

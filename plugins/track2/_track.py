@@ -6,10 +6,11 @@ moves), ``execution`` 30 min with up to three attempts (see ``_episode``). The p
 (``/input/demo`` in the container). Splits (``simhost.track2.SPLITS``): the official
 ``standard`` and ``challenge`` (a robot's observation, a goal defined by the demonstration,
 wide variation; the final score's splits) and the public ``dev`` (today's level, an extra
-split); a campaign split of another name sets ``params.preset``. Families are balanced by the episode's index within its split
-(``index mod 5``). Files: ``task_model.json`` and ``episode_log.jsonl``, both required.
-Score: eq. (3), see ``_scoring``. Leaderboard: Table VII's columns; the average is the mean
-over families of each family's mean score, as in Table VII.
+split); a campaign split of another name sets ``params.preset``. Families are balanced by
+the episode's index within its split (``index mod 5``). Files: ``task_model.json`` and
+``episode_log.jsonl``, both required. Score: eq. (3), see ``_scoring``. Leaderboard: Table
+VII's columns; the average is the mean over families of each family's mean score, as in
+Table VII.
 """
 
 from __future__ import annotations

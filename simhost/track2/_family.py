@@ -33,7 +33,6 @@ import numpy as np
 from ._bench import (
     DPOS_MAX,
     DYAW_MAX,
-    PART_FIELDS,
     WIDTH_MAX,
     WORKSPACE_HI,
     WORKSPACE_LO,
@@ -48,7 +47,6 @@ if TYPE_CHECKING:
     from ._env import BenchEnv
     from ._sim import Sim
 
-__all__ = ["PART_FIELDS"]
 GOAL_NAMES = ("stated", "g1", "g2", "g3")
 GOAL_SIZE = len(GOAL_NAMES)
 Action = np.ndarray

@@ -7,7 +7,8 @@ regenerates them; a test fails on drift).
 
 from schemas._campaign import CampaignSpec, Limits, Split, Submission
 from schemas._contract import CONTAINER, ContainerContract, unix_endpoint
-from schemas._errors import SchemaError
+from schemas._demo import DEMO_VERSION, Annotation, ArraySpec, DemoManifest, FrameSpec, KeyStage
+from schemas._errors import EagcError, SchemaError
 from schemas._files import (
     TASK_MODEL_VERSION,
     WORLD_MODEL_VERSION,
@@ -25,7 +26,7 @@ from schemas._files import (
     TaskModel,
     WorldModel,
 )
-from schemas._io import load_json, parse_json, parse_jsonl
+from schemas._io import load_json, parse_episode_log, parse_json, parse_jsonl
 from schemas._protocol import (
     PROTOCOL_VERSION,
     ActionResult,
@@ -56,18 +57,23 @@ from schemas._result import (
 
 __all__ = [
     "CONTAINER",
+    "DEMO_VERSION",
     "PROTOCOL_VERSION",
     "TASK_MODEL_VERSION",
     "WORLD_MODEL_VERSION",
     "ActionResult",
     "Affordance",
+    "Annotation",
     "Answer",
+    "ArraySpec",
     "CampaignSpec",
     "Connection",
     "ContainerContract",
     "ContainerExit",
     "ContainerState",
+    "DemoManifest",
     "DoorState",
+    "EagcError",
     "EndStage",
     "EpisodeResult",
     "EpisodeStats",
@@ -76,9 +82,11 @@ __all__ = [
     "FailureReport",
     "FieldSpec",
     "FileCheck",
+    "FrameSpec",
     "Hello",
     "HelloReply",
     "HostMessage",
+    "KeyStage",
     "Limits",
     "LogRecord",
     "NamedItem",
@@ -101,6 +109,7 @@ __all__ = [
     "TensorMeta",
     "WorldModel",
     "load_json",
+    "parse_episode_log",
     "parse_json",
     "parse_jsonl",
     "unix_endpoint",

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from simhost._errors import SimHostError
 
-class Track2Error(Exception):
-    """Root of every error raised by ``simhost.track2``."""
+
+class Track2Error(SimHostError):
+    """Raised when a Track 2 bench cannot be built, changed or restored (root of its errors)."""
 
 
 class InstanceParamsError(Track2Error, ValueError):
@@ -17,3 +19,7 @@ class StateError(Track2Error, ValueError):
 
 class DemoPacketError(Track2Error, ValueError):
     """Raised when a demonstration packet folder is missing, malformed or inconsistent."""
+
+
+class SplitConfigError(Track2Error, ValueError):
+    """Raised when a split name is not one of the presets (``dev``, ``standard``, ``challenge``)."""

@@ -59,6 +59,10 @@ def test_every_baseline_has_its_image_and_readme() -> None:
                                         dockerfile.splitlines()].index(True)] == \
             "FROM eagc/agent-base:latest"
         assert (folder / "README.md").is_file(), f"{name} has no README"
+        copied = [line for line in dockerfile.splitlines() if line.startswith("COPY")]
+        for module in [*folder.glob("*.py"), *folder.glob("*.npz")]:  # the image has them all
+            assert any(module.name in line or f"*{module.suffix}" in line for line in copied), (
+                f"{name}'s Dockerfile does not copy {module.name}")
         # What runs in the image needs numpy and the light client only (training does not
         # run there: train_priors.py runs offline, with the simulator).
         text = "\n".join(p.read_text() for p in folder.glob("*.py") if p.name != "train_priors.py")

@@ -48,7 +48,14 @@ from ._layout import Door, Furniture, HouseLayout, HouseParams, Item, Room, Wall
 from ._register import CHALLENGE_ENV_ID, DEV_ENV_ID, ENV_ID, ENV_IDS, register_envs
 from ._splits import SPLITS, HouseSplit, house_split
 from ._task import HouseTask
-from ._topdown import render_topdown, write_png
+from ._topdown import (
+    TOPDOWN_LEGEND,
+    TOPDOWN_MARGIN,
+    TOPDOWN_SCALE,
+    draw_text,
+    render_topdown,
+    write_png,
+)
 from ._truth import (
     AffordanceTruth,
     ConnectionTruth,
@@ -104,6 +111,9 @@ __all__ = [
     "ROOM_TYPES",
     "SPLITS",
     "STATES",
+    "TOPDOWN_LEGEND",
+    "TOPDOWN_MARGIN",
+    "TOPDOWN_SCALE",
     "ActionResult",
     "AffordanceTruth",
     "ConfigError",
@@ -138,6 +148,7 @@ __all__ = [
     "Wall",
     "WorldState",
     "doors_on_path",
+    "draw_text",
     "generate_house",
     "ground_truth",
     "house_split",

@@ -73,7 +73,51 @@ _GLYPHS = {
     " ": "000000000000000",
     "-": "000000111000000",
     "#": "101111101111101",
+    ".": "000000000000010",
+    ",": "000000000010100",
+    ":": "000010000010000",
+    "/": "001001010100100",
+    "(": "010100100100010",
+    ")": "010001001001010",
+    "%": "101001010100101",
+    "=": "000111000111000",
 }
+
+TOPDOWN_LEGEND: tuple[tuple[str, Colour], ...] = (
+    ("wall", _WALL),
+    ("door open", _DOOR["open"]),
+    ("door closed", _DOOR["closed"]),
+    ("door locked", _DOOR["locked"]),
+    ("furniture", _FURNITURE),
+    ("container open", _CONTAINER["open"]),
+    ("container closed", _CONTAINER["closed"]),
+    ("unavailable", _CONTAINER["unavailable"]),
+    ("robot", _ROBOT),
+)
+"""What the colours of ``render_topdown`` mean (objects are drawn in their own colour: discs,
+tools squares)."""
+
+TOPDOWN_SCALE = 48.0
+"""Pixels per metre of ``render_topdown`` (its default)."""
+TOPDOWN_MARGIN = 12
+"""Pixels of white around the house in ``render_topdown``."""
+
+
+def draw_text(img: np.ndarray, x: int, y: int, text: str, colour: Colour = _TEXT,
+              size: int = 2) -> int:
+    """Writes ``text`` (letters, digits and a little punctuation, in capitals) into an RGB
+    image with its top-left corner at pixel (x, y); returns the x after the text."""
+    h, w = img.shape[:2]
+    for ch in text.upper():
+        bits = _GLYPHS.get(ch, _GLYPHS["#"])
+        for k, bit in enumerate(bits):
+            if bit == "1":
+                r, c = divmod(k, 3)
+                a, b = y + r * size, x + c * size
+                if 0 <= a and a + size <= h and 0 <= b and b + size <= w:
+                    img[a : a + size, b : b + size] = colour
+        x += 4 * size
+    return x
 
 
 class _HasTruth(Protocol):

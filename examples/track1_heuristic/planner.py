@@ -111,6 +111,10 @@ class MapPlanner:
                     self.grid.clear(*t.position, 0.45)
                 else:
                     self.grid.mark(*t.position, 6)
+                if t.state == "locked":  # where exceptions show themselves (dev split)
+                    self.report("door_lock", ts.stage, door=t.id)
+            elif t.kind == "container" and t.state == "unavailable":
+                self.report("container_unavailable", ts.stage, container=t.id)
         for t in self.model.moved:  # the agent moves only what it carries
             if t.id not in self.carried:
                 self.report("object_relocation", ts.stage, item=t.id)

@@ -11,7 +11,8 @@ Split parameters (``KNOWN_PARAMS``, the split's defaults in ``Track1.splits``):
 ``rooms`` (inclusive range), ``exception_probability``, ``exceptions`` (the allowed
 types), ``goals`` (inclusive range of clauses), ``language`` (``templates``: the dev
 split's six templates with the substitute rule stated; ``grammar``: the paraphrasing
-grammar), ``house_params`` (an organizer parameter pack: fields of
+grammar), ``step_budgets`` (false: no per-episode step budgets, as on the dev split),
+``house_params`` (an organizer parameter pack: fields of
 ``simhost.track1.HouseParams``), ``env`` (sensing options: fields of
 ``simhost.track1.HouseEnvConfig``), ``render_rgbd`` and ``image_size``.
 """
@@ -38,7 +39,7 @@ from simhost.track1 import (
 )
 
 KNOWN_PARAMS = ("rooms", "exception_probability", "exceptions", "goals", "language",
-                "house_params", "env", "render_rgbd", "image_size")
+                "step_budgets", "house_params", "env", "render_rgbd", "image_size")
 
 
 def check_params(params: Mapping[str, Any]) -> None:
@@ -100,6 +101,8 @@ def build_scenario(seed: int, split: str, params: Mapping[str, Any]) -> Track1Sc
         raise PluginError(f"track1: {e}; use another seed") from e
     spec = Track1Scenario(split=config, layout_digest=layout.digest(), rooms=len(layout.rooms),
                           task=task, exception=planned, queries=plan_queries(truth, rng))
+    if not params.get("step_budgets", True):
+        return spec
     cfg = config.config
     budgets = {
         "exploration": exploration_steps(layout, truth, cfg.max_forward),

@@ -39,7 +39,8 @@ class Track1(TrackPlugin):
     splits = {
         "standard": (0.6, {"exception_probability": 0.5, "goals": [2, 2]}),
         "challenge": (0.4, {"exception_probability": 1.0, "goals": [2, 3]}),
-        "dev": (1.0, {"exception_probability": 0.5, "goals": [1, 1], "language": "templates"}),
+        "dev": (1.0, {"exception_probability": 0.5, "goals": [1, 1], "language": "templates",
+                      "step_budgets": False}),
     }
     columns = (
         Column("standard", "Std."),

@@ -132,9 +132,10 @@ def test_step_budgets_follow_the_ground_truth() -> None:
     # the same house gets the same budgets whatever the sensing (an oracle's tour)
     same = {"distractors": [0, 0], "p_in_container": 0.3, "p_container_open": 0.3,
             "room_items": {}}
-    dev, std = _spec(5, "dev"), _spec(5, "standard", house_params=same)
+    dev, std = _spec(5, "dev", step_budgets=True), _spec(5, "standard", house_params=same)
     assert dev.layout_digest == std.layout_digest
     assert std.budgets["exploration"] == dev.budgets["exploration"]
+    assert _spec(5, "dev").budgets == {}, "the dev split keeps today's level: no step budgets"
 
 
 def test_split_parameters_are_checked() -> None:

@@ -2,8 +2,8 @@
 machine and exhaustive search does not fit (they apply besides the wall-clock budgets).
 
 A reference route is converted to steps as a robot drives it: ``metres / max_forward``
-forward steps, ``TURN_STEPS`` per leg to turn, ``DOOR_STEPS`` per doorway crossed (a door
-may need opening), and one step per primitive of the task.
+forward steps, ``TURN_STEPS`` per leg to turn (up to 135 degrees), ``DOOR_STEPS`` per
+doorway crossed (a door may need opening), and one step per primitive of the task.
 
 - exploration: ``EXPLORATION_FACTOR`` × an oracle's tour of every room: the shortest walk
   from the start through every room's centre (an oracle knows the house: it needs no
@@ -27,16 +27,18 @@ from simhost.track1 import HouseLayout, HouseTruth
 
 EXPLORATION_FACTOR = 1.3
 EXECUTION_FACTOR = 2.0
-TURN_STEPS = 2
+TURN_STEPS = 3
 DOOR_STEPS = 2
 
 
-def backup_places(truth: HouseTruth, avoid_rooms: Iterable[int]) -> list[int]:
+def backup_places(truth: HouseTruth, avoid_rooms: Iterable[int],
+                  avoid: Iterable[int] = ()) -> list[int]:
     """Receptacles where a relocated object may end up (the backup areas): everything in the
-    storage room, and shelves and cabinets elsewhere; never in ``avoid_rooms``."""
-    avoid = set(avoid_rooms)
+    storage room, and shelves and cabinets elsewhere; never in ``avoid_rooms``, never one of
+    ``avoid`` (the task's destinations: a move must not do the task)."""
+    rooms, ids = set(avoid_rooms), set(avoid)
     return [f.id for f in (*truth.furniture, *truth.containers)
-            if f.room not in avoid and f.state != "unavailable"
+            if f.room not in rooms and f.id not in ids and f.state != "unavailable"
             and (f.room == truth.backup_room or f.category in ("shelf", "cabinet"))]
 
 
@@ -112,7 +114,8 @@ def _worst_case(layout: HouseLayout, truth: HouseTruth, spec: Track1Scenario,
         elif exc.type == "object_relocation":
             obj = truth.object(g.fetched)
             assert obj is not None
-            for place in backup_places(truth, (obj.room,)):
+            ends = {x for goal in goals for x in (goal.destination, *goal.substitutes)}
+            for place in backup_places(truth, (obj.room,), ends):
                 swap = {(exc.goal, "via"): _access(truth, g.fetched),
                         (exc.goal, "from"): _access(truth, place)}
                 variants.append((goal_points(truth, goals, start, swap), ()))

@@ -132,7 +132,8 @@ class ControlledException:
         if here != obj.room and math.dist(obj.position[:2], (x, y)) > TRIGGER_DIST:
             return []
         in_view = {d.id for d in house.visible()}
-        places = [p for p in backup_places(truth, (obj.room, here)) if p not in in_view]
+        ends = {x for g in ep.task.goals for x in (g.destination, *g.substitutes)}
+        places = [p for p in backup_places(truth, (obj.room, here), ends) if p not in in_view]
         rng = np.random.default_rng([self.seed, 2, ep.steps])
         for k in rng.permutation(len(places)).tolist():
             place = places[k]

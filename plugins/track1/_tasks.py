@@ -189,6 +189,13 @@ class TaskMaker:
                     ok = self.use_goal(rng, draft) or self.place_goal(rng, draft, inside=None)
                 if not ok:
                     break
+            if ok:  # a substitute container must not be another clause's destination
+                taken = {g.destination for g in draft.goals}
+                draft.goals = [g.model_copy(update={"substitutes": tuple(
+                    s for s in g.substitutes if s not in taken)}) if g.container else g
+                    for g in draft.goals]
+                if exception == "container_unavailable":
+                    ok = bool(draft.goals[target].substitutes)
             if ok and exception == "object_relocation":
                 g = draft.goals[target]
                 ok = self.items[g.fetched].room != self.truth.backup_room

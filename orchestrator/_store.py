@@ -143,13 +143,13 @@ class ResultsStore:
                     self.db.execute("UPDATE meta SET value=? WHERE key='schema'",
                                     (str(SCHEMA_VERSION),))
             (version,) = self.db.execute("SELECT value FROM meta WHERE key='schema'").fetchone()
-        except StoreWriteError as e:
+        except (StoreWriteError, sqlite3.Error) as e:
             self.db.close()
-            raise StoreDamaged(str(e)) from None
-        except sqlite3.Error as e:
-            self.db.close()
-            raise StoreDamaged(f"the results store {self.path} is damaged ({e}); rebuild it "
-                               f"from the episode folders: {REBUILD}") from None
+            if isinstance(e, StoreWriteError) and "full" in str(e):
+                raise
+            cause = str(e).rsplit(": ", 1)[-1]
+            raise StoreDamaged(f"the results store {self.path} is damaged ({cause}); rebuild "
+                               f"it from the episode folders: {REBUILD}") from None
         if int(version) > SCHEMA_VERSION:
             self.db.close()
             raise StoreError(f"{self.path} has store schema {version}; this eagc knows "

@@ -39,7 +39,23 @@ def test_promtool_accepts_config_and_rules() -> None:
         assert r.returncode == 0, r.stdout + r.stderr
     rules = yaml.safe_load((DEPLOY / "prometheus" / "alerts.yml").read_text())
     names = {r["alert"] for g in rules["groups"] for r in g["rules"]}
-    assert {"EagcCampaignStuck", "EagcHighFailureRate", "EagcNoProgress"} <= names
+    assert {"EagcCampaignStuck", "EagcHighFailureRate", "EagcNoProgress", "EagcTeamFailing",
+            "EagcDriverDown"} <= names
+    config = yaml.safe_load((DEPLOY / "prometheus" / "prometheus.yml").read_text())
+    # Ray's metrics agent needs ray[default], which the worker image does not have: a `ray`
+    # job would always be down (issue 13 §11), so there is none.
+    assert [j["job_name"] for j in config["scrape_configs"]] == ["eagc-driver"]
+
+
+def test_alert_rules_pass_their_unit_tests() -> None:
+    """deploy/prometheus/alerts_test.yml: a team failing most of its episodes, a driver
+    that stopped reporting mid-campaign (and not one that finished), first failures counted
+    from series that start at 0."""
+    promtool = _tool("promtool", "prometheus")
+    r = subprocess.run([promtool, "test", "rules", "alerts_test.yml"], capture_output=True,
+                       text=True, cwd=DEPLOY / "prometheus")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "SUCCESS" in r.stdout + r.stderr
 
 
 def test_compose_file_resolves() -> None:

@@ -9,6 +9,7 @@ sandbox).
 
 from __future__ import annotations
 
+import json
 import os
 import sqlite3
 import subprocess
@@ -114,16 +115,14 @@ def test_embedded_ray_never_attaches_to_another_cluster(ray_tmp: Path) -> None:
                  env={"RAY_ADDRESS": cluster.address})
         assert r.returncode == 0, r.stderr[-3000:]
         assert "Token authentication" not in r.stderr
-        import ray  # what ran on the other cluster: nothing
-
-        nodes = subprocess.run(
-            [sys.executable, "-c", "import ray, json; ray.init(address='%s'); "
-             "print(json.dumps([n['NodeID'] for n in ray.nodes()]))" % cluster.address],
-            env=cluster.env, capture_output=True, text=True, timeout=120)
+        # The other cluster's nodes: none of them ran our episode.
+        probe = (f"import ray, json; ray.init(address={cluster.address!r}); "
+                 "print(json.dumps([n['NodeID'] for n in ray.nodes()]))")
+        nodes = subprocess.run([sys.executable, "-c", probe], env=cluster.env,
+                               capture_output=True, text=True, timeout=120)
         assert nodes.returncode == 0, nodes.stderr[-2000:]
         ours = {row[0] for row in sqlite3.connect(folder / "out" / "results.sqlite").execute(
             "SELECT node FROM episodes")}
-        assert ours and not ours & set(__import__("json").loads(nodes.stdout.splitlines()[-1]))
-        del ray
+        assert ours and not ours & set(json.loads(nodes.stdout.splitlines()[-1]))
     finally:
         cluster.stop()

@@ -60,8 +60,13 @@ def test_alert_rules_pass_their_unit_tests() -> None:
 
 def test_compose_file_resolves() -> None:
     compose = _tool("docker-compose", "docker-compose")
+    env = {k: v for k, v in os.environ.items() if k != "RAY_AUTH_TOKEN"}
     r = subprocess.run([compose, "-f", str(DEPLOY / "docker-compose.yml"), "config"],
-                       capture_output=True, text=True, env={**os.environ, "EAGC_HOME": "/srv/x"})
+                       capture_output=True, text=True, env={**env, "EAGC_HOME": "/srv/x"})
+    assert r.returncode != 0 and "RAY_AUTH_TOKEN" in r.stderr  # no token: a clear refusal
+    r = subprocess.run([compose, "-f", str(DEPLOY / "docker-compose.yml"), "config"],
+                       capture_output=True, text=True,
+                       env={**env, "EAGC_HOME": "/srv/x", "RAY_AUTH_TOKEN": "t0ken"})
     assert r.returncode == 0, r.stderr
     doc = yaml.safe_load(r.stdout)
     assert set(doc["services"]) == {"ray-head", "prometheus", "grafana"}
@@ -72,6 +77,8 @@ def test_compose_file_resolves() -> None:
                for v in volumes), volumes
     assert any("docker.sock" in v for v in volumes)
     assert "eagc_slot" in " ".join(head["command"])
+    assert head["environment"]["RAY_AUTH_MODE"] == "token"
+    assert head["environment"]["RAY_AUTH_TOKEN"] == "t0ken"
 
 
 def test_ray_cluster_config_matches_rays_schema() -> None:

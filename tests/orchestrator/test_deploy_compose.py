@@ -12,15 +12,12 @@ from __future__ import annotations
 import os
 import secrets
 import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "orchestrator"))
-from test_campaign_helpers import free_port, short_dir  # noqa: E402
+from test_campaign_helpers import free_port, short_dir
 
 pytestmark = [pytest.mark.docker, pytest.mark.slow]
 
@@ -41,7 +38,7 @@ def test_compose_ray_head_starts_with_token_auth(docker_engine: Any) -> None:
     project = "eagc-test-" + secrets.token_hex(4)
     env = {**os.environ, "EAGC_HOME": str(short_dir("eagc-ch-")), "EAGC_WORKER_IMAGE": TAG,
            "RAY_AUTH_TOKEN": secrets.token_hex(32), "EAGC_RAY_PORT": str(free_port()),
-           "EAGC_RAY_CLIENT_PORT": str(free_port()), "EAGC_SLOTS": "1"}
+           "EAGC_SLOTS": "1"}
     compose = ["docker-compose", "-p", project, "-f", str(DEPLOY / "docker-compose.yml")]
     try:
         up = subprocess.run([*compose, "up", "-d", "ray-head"], env=env, capture_output=True,

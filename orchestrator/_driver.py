@@ -115,6 +115,7 @@ class Driver:
         self.archives: dict[str, list[Any]] = {}
         self.board: Any = None
         self.watch: ClusterWatch | None = None
+        self._nodes_checked = 0.0
 
     def close(self) -> None:
         if self.watch is not None:
@@ -179,7 +180,7 @@ class Driver:
                 self.archives[sub.team] = [ray.put(sub.archive.read_bytes())]
         for key in todo:
             self._submit(key, self.store.attempts(self.name, key))
-        self.events.write("submitted", episodes=len(todo))
+        self.events.write("submitted", episodes=len(todo), board_node=here)
         progress, bar = self._progress(len(todo))
         try:
             with progress:
@@ -247,6 +248,42 @@ class Driver:
         self._drain()
         for ref in ready:
             self._finish(ref)
+        self._check_nodes()
+
+    def _check_nodes(self, every_s: float = 5.0) -> None:
+        """Episodes whose node Ray declared dead are retried now: the task's own failure may
+        reach the driver only minutes later (a node cut off the network answers nothing, and
+        Ray waits for its gRPC keepalive)."""
+        import ray
+
+        if time.monotonic() - self._nodes_checked < every_s:
+            return
+        self._nodes_checked = time.monotonic()
+        dead = {n["NodeID"] for n in ray.nodes() if not n.get("Alive")}
+        if not dead:
+            return
+        from orchestrator._store import EpisodeKey
+
+        for ref, job in list(self.pending.items()):
+            node = self.running.get(job.episode, {}).get("node")
+            if node not in dead:
+                continue
+            self.pending.pop(ref)
+            self.running.pop(job.episode, None)
+            self.finished.add(job.episode)
+            self.metrics.set_running(len(self.running))
+            ray.cancel(ref, force=True)
+            key = EpisodeKey(job.submission, job.split, job.index)
+            where = {"submission": job.submission, "split": job.split, "index": job.index,
+                     "retry": job.retry, "episode": job.episode}
+            message = f"NodeDiedError: the node running the episode ({node[:12]}) was lost"
+            try:
+                # No cleanup through Ray: the node cannot be reached. Its containers lose
+                # their heartbeat with its workers and are reaped (orchestrator._reaper).
+                self._record(job, key, where, None, node, True, message, reach=False)
+            except StoreError:
+                self.metrics.store_error()
+                raise
 
     def _drain(self) -> None:
         import ray
@@ -316,7 +353,7 @@ class Driver:
             raise
 
     def _record(self, job: Any, key: Any, where: dict[str, Any], result: EpisodeResult | None,
-                node: str | None, crashed: bool, message: str) -> None:
+                node: str | None, crashed: bool, message: str, *, reach: bool = True) -> None:
         from orchestrator._fanout import cleanup_nodes
 
         if result is not None and result.status.failure_kind != "infra":
@@ -337,7 +374,7 @@ class Driver:
         # An infrastructure failure: record it, then retry or quarantine.
         self.store.record_attempt(self.name, key, retry=job.retry, episode=job.episode,
                                   message=message, node=node, result=result)
-        if crashed:  # the dead worker's container and output mount
+        if crashed and reach:  # the dead worker's container and output mount
             self._reaped(len(cleanup_nodes({"campaign": self.name, "episode": job.episode},
                                            str(self.folder / job.episode))))
         if self.cancelling:

@@ -39,10 +39,11 @@ from orchestrator._runtime import LABEL_PREFIX
 
 log = logging.getLogger("eagc.reaper")
 
-BEAT_S = 2.0
-STALE_S = 30.0
+#: A heartbeat this old means a dead episode (``EAGC_HEARTBEAT_STALE_S``: tests shorten it).
+STALE_S = float(os.environ.get("EAGC_HEARTBEAT_STALE_S", "30"))
+BEAT_S = min(2.0, STALE_S / 3)
 REAP_S = 30.0
-POLL_S = 2.0
+POLL_S = min(2.0, STALE_S / 3)
 HEARTBEAT_LABEL = f"{LABEL_PREFIX}.heartbeat"
 
 

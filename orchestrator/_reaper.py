@@ -19,8 +19,7 @@ things bound it, each from outside the container:
   and exits as soon as the container is gone. This is what bounds a dead driver's
   containers when no worker is left: within ``STALE_S`` + ``POLL_S`` (about 35 s).
 
-Run as ``python -m orchestrator._reaper watch CONTAINER HEARTBEAT DEADLINE`` (the worker
-does this through ``start_watcher``).
+The watcher is ``orchestrator/_watcher.py``, started by ``start_watcher``.
 """
 
 from __future__ import annotations
@@ -133,66 +132,11 @@ def reap_here() -> int:
 
 # ---------------------------------------------------------------------------- watcher
 def start_watcher(container: str, heartbeat: Path, deadline: float) -> None:
-    """Starts the episode watcher, detached from this process (re-parented to init)."""
+    """Starts the episode watcher (``_watcher.py``, run as a plain script: it imports
+    nothing of eagc, so it costs one interpreter start), detached from this process: it
+    forks once more and its parent leaves, so it is re-parented to init."""
     subprocess.run(
-        [sys.executable, "-m", "orchestrator._reaper", "spawn", container, str(heartbeat),
-         repr(deadline)],
+        [sys.executable, str(Path(__file__).with_name("_watcher.py")), container,
+         str(heartbeat), repr(deadline), repr(STALE_S), repr(POLL_S)],
         check=False, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL, start_new_session=True, timeout=30,
-        env={**os.environ, "PYTHONPATH": os.pathsep.join(
-            p for p in (str(Path(__file__).resolve().parents[1]),
-                        os.environ.get("PYTHONPATH")) if p)},
-    )
-
-
-def watch(container: str, heartbeat: str, deadline: float) -> str:
-    """Polls ``container`` until it is gone; removes it when its heartbeat is stale or gone,
-    or at ``deadline``. Returns why it stopped watching."""
-    import docker
-
-    client = docker.from_env(timeout=60)
-    while True:
-        try:
-            c = client.containers.get(container)
-        except docker.errors.NotFound:
-            return "gone"
-        except Exception:  # noqa: BLE001 - the engine restarts: try again
-            time.sleep(POLL_S)
-            continue
-        age = heartbeat_age(heartbeat)
-        why = None
-        if time.time() >= deadline:
-            why = "its hard deadline passed"
-        elif age is None:
-            why = "its episode folder's heartbeat is gone"
-        elif age >= STALE_S:
-            why = f"its episode's heartbeat is {age:.0f} s old"
-        if why is not None:
-            try:
-                c.remove(force=True)
-            except Exception:  # noqa: BLE001 - gone meanwhile
-                pass
-            return f"removed: {why}"
-        time.sleep(POLL_S)
-
-
-def main(argv: list[str]) -> int:
-    if len(argv) == 4 and argv[0] == "spawn":  # fork once more and let the parent leave
-        if os.fork() != 0:
-            return 0
-        os.setsid()
-        devnull = os.open(os.devnull, os.O_RDWR)
-        for fd in (0, 1, 2):
-            os.dup2(devnull, fd)
-        watch(argv[1], argv[2], float(argv[3]))
-        return 0
-    if len(argv) == 4 and argv[0] == "watch":
-        print(watch(argv[1], argv[2], float(argv[3])))
-        return 0
-    print("usage: python -m orchestrator._reaper watch CONTAINER HEARTBEAT DEADLINE",
-          file=sys.stderr)
-    return 2
-
-
-if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))
+        stderr=subprocess.DEVNULL, start_new_session=True, timeout=30)

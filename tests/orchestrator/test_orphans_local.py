@@ -114,3 +114,34 @@ def test_cleanup_finds_dead_local_agents_and_leaves_live_ones() -> None:
     finally:
         dead.stop()
         live.stop()
+
+
+def test_cleanup_tidies_killed_attempts_folders() -> None:
+    """`eagc cleanup --runs DIR`: a killed attempt's folder (no result, stale heartbeat) is
+    removed, or reduced to its host/ with --keep-logs; a finished episode's and a live
+    one's are left alone."""
+    runs = Path(tempfile.mkdtemp(prefix="eagc-kf-", dir="/tmp")) / "camp"
+    for name in ("epkilled", "epdone", "eplive"):
+        for sub in ("host", "sock", "output"):
+            (runs / name / sub).mkdir(parents=True)
+        (runs / name / "host" / "episode.mcap").write_bytes(b"partial")
+        (runs / name / "sock" / "zenoh.sock").write_bytes(b"")
+        (runs / name / "heartbeat").touch()
+    (runs / "epdone" / "host" / "result.json").write_text("{}")
+    old = time.time() - 600
+    for name in ("epkilled", "epdone"):
+        os.utime(runs / name / "heartbeat", (old, old))
+    cli = CliRunner()
+    dry = cli.invoke(app, ["cleanup", "--runs", str(runs.parent), "--dry-run"])
+    assert dry.exit_code == 0 and "would remove 1 killed attempt folder(s)" in dry.output
+    assert (runs / "epkilled" / "sock").exists()
+    kept = cli.invoke(app, ["cleanup", "--runs", str(runs.parent), "--keep-logs"])
+    assert kept.exit_code == 0, kept.output
+    assert sorted(p.name for p in (runs / "epkilled").iterdir()) == ["host"]
+    assert (runs / "epkilled" / "host" / "episode.mcap").read_bytes() == b"partial"
+    again = cli.invoke(app, ["cleanup", "--runs", str(runs.parent), "--keep-logs"])
+    assert "removed 0 killed attempt folder(s)" in again.output  # tidied once only
+    gone = cli.invoke(app, ["cleanup", "--runs", str(runs.parent)])
+    assert gone.exit_code == 0 and not (runs / "epkilled").exists()
+    for name in ("epdone", "eplive"):
+        assert (runs / name / "sock" / "zenoh.sock").exists(), name

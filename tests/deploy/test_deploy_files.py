@@ -119,7 +119,8 @@ def test_grafana_dashboard_is_complete() -> None:
     for metric in ("eagc_campaign_episodes", "eagc_episodes_running", "eagc_episodes_total",
                    "eagc_episode_duration_seconds", "eagc_agent_step_latency_seconds",
                    "eagc_invalid_actions_total", "eagc_episode_retries_total",
-                   "eagc_episode_score", "eagc_container_peak_memory_bytes"):
+                   "eagc_episode_score", "eagc_container_peak_memory_bytes",
+                   "eagc_containers_reaped_total", "eagc_store_errors_total"):
         assert metric in exprs, f"no panel shows {metric}"
     ids = [p["id"] for p in doc["panels"]]
     assert len(ids) == len(set(ids))

@@ -162,7 +162,7 @@ class CampaignOptions:
     retry_quarantined: bool = False
     cancel_grace_s: float = 10.0
     #: How long the GCS may refuse connections before the campaign is given up.
-    cluster_patience_s: float = 5.0
+    cluster_patience_s: float = 10.0
 
 
 @dataclass

@@ -259,7 +259,11 @@ class Driver:
         if time.monotonic() - self._nodes_checked < every_s:
             return
         self._nodes_checked = time.monotonic()
-        dead = {n["NodeID"] for n in ray.nodes() if not n.get("Alive")}
+        try:
+            dead = {n["NodeID"] for n in ray.nodes() if not n.get("Alive")}
+        except Exception as e:  # noqa: BLE001 - the GCS is busy or gone: ClusterWatch says
+            log.warning("could not list Ray's nodes: %s", e)
+            return
         if not dead:
             return
         from orchestrator._store import EpisodeKey

@@ -5,6 +5,8 @@ where the test cannot wait 30 s for one to go stale)."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Iterator
@@ -13,17 +15,24 @@ from typing import Any
 
 import pytest
 from test_campaign_helpers import build_campaign_images
-from typer.testing import CliRunner
 
 from orchestrator._docker import DockerRuntime
-from orchestrator._reaper import HEARTBEAT_LABEL, STALE_S, reap_stale
+from orchestrator._reaper import HEARTBEAT_LABEL, reap_stale
 from orchestrator._runtime import AgentLaunch
-from orchestrator.cli import app
 from schemas import Limits
 
 pytestmark = [pytest.mark.docker]
 
 IMAGE = "eagc-test/waiting:latest"
+STALE = 5.0
+
+
+def _cleanup(*args: str) -> subprocess.CompletedProcess[str]:
+    """`eagc cleanup` as a process of its own, with heartbeats stale after STALE s."""
+    return subprocess.run([sys.executable, "-m", "orchestrator.cli", "cleanup", *args],
+                          capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "EAGC_HEARTBEAT_STALE_S": str(STALE),
+                               "COLUMNS": "200"})
 
 
 @pytest.fixture()
@@ -51,30 +60,32 @@ def _exists(engine: Any, name: str) -> bool:
 def test_only_stale_heartbeats_are_reaped(docker_engine: Any, campaign: str) -> None:
     """Of four agents, only the one whose heartbeat is readable and stale goes: a fresh
     heartbeat, one this machine cannot read (another node's folder) and none at all stay.
-    `eagc cleanup` does the same (a dry run first); `--campaign` takes them all."""
+    `eagc cleanup` does the same (a dry run first); `--campaign` takes them all.
+
+    "Stale" is 5 s here and the stale heartbeat 15 s old: other campaigns' reapers on this
+    machine (30 s) must not take this test's container before it looks."""
     folder = Path(tempfile.mkdtemp(prefix="eagc-hb-", dir="/tmp"))
     stale, fresh = folder / "stale", folder / "fresh"
     stale.touch()
     fresh.touch()
-    old = time.time() - STALE_S - 30
+    old = time.time() - 15
     os.utime(stale, (old, old))
     for tag, hb in (("stale", str(stale)), ("fresh", str(fresh)),
                     ("elsewhere", "/nonexistent/ep0/heartbeat"), ("unlabelled", None)):
         _sleeper(docker_engine, campaign, tag, hb)
-    cli = CliRunner()
-    dry = cli.invoke(app, ["cleanup", "--dry-run"])
-    assert dry.exit_code == 0, dry.output
-    assert f"eagc-{campaign}-stale" in dry.output
-    assert f"eagc-{campaign}-fresh" not in dry.output
+    dry = _cleanup("--dry-run")
+    assert dry.returncode == 0, dry.stderr
+    assert f"eagc-{campaign}-stale" in dry.stdout
+    assert f"eagc-{campaign}-fresh" not in dry.stdout
     assert _exists(docker_engine, f"eagc-{campaign}-stale")  # nothing removed by a dry run
-    removed = reap_stale(docker_engine)
+    removed = reap_stale(docker_engine, stale_s=STALE)
     assert f"eagc-{campaign}-stale" in removed
     assert not any(n.startswith(f"eagc-{campaign}-") and n != f"eagc-{campaign}-stale"
                    for n in removed)
     for tag in ("fresh", "elsewhere", "unlabelled"):
         assert _exists(docker_engine, f"eagc-{campaign}-{tag}"), tag
-    named = cli.invoke(app, ["cleanup", "--campaign", campaign])
-    assert named.exit_code == 0 and "removed 3 container(s)" in named.output, named.output
+    named = _cleanup("--campaign", campaign)
+    assert named.returncode == 0 and "removed 3 container(s)" in named.stdout, named.stdout
     assert not docker_engine.containers.list(all=True,
                                              filters={"label": f"eagc.campaign={campaign}"})
 

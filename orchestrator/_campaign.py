@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from orchestrator._errors import OrchestratorError
 from schemas import CampaignSpec, SchemaError, parse_json
 
 log = logging.getLogger("eagc.campaign")
@@ -53,7 +54,7 @@ log = logging.getLogger("eagc.campaign")
 MAX_RUNS_DIR = 100 - len("/ep0123456789abcdef/sock/zenoh.sock")
 
 
-class CampaignError(RuntimeError):
+class CampaignError(OrchestratorError, RuntimeError):
     """Raised when a campaign cannot start: images, the cluster, another driver, the store."""
 
 
@@ -70,8 +71,8 @@ class DriverFailure(CampaignError):
         self.exit_code = exit_code
 
 
-#: Exit codes of ``eagc campaign run`` for a campaign that had to stop.
-EXIT_STORE, EXIT_CLUSTER = 4, 5
+#: Exit codes of ``eagc campaign run`` for a campaign that had to stop (``ExitCode``).
+EXIT_STORE, EXIT_CLUSTER = 5, 6
 
 
 # ---------------------------------------------------------------------------- the spec

@@ -8,7 +8,7 @@ lock and runs a ``Driver``. What it guarantees under faults (README, "Faults"):
   every node and output mounts released; exit 130;
 * the store fails (a full disk, an I/O error) or the Ray cluster is lost: the same cancel
   path (for a lost cluster, on this node through the engine directly, the other nodes'
-  containers being bounded by their episode watchers), one message, exit 4 or 5; nothing
+  containers being bounded by their episode watchers), one message, exit 5 or 6; nothing
   committed is lost and ``eagc campaign rebuild-store`` adds what finished meanwhile;
 * a store that is damaged, or holds fewer results than ``events.jsonl`` says were
   committed (an empty file put in its place), is refused before anything runs;

@@ -31,6 +31,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from orchestrator._errors import OrchestratorError
 from schemas import CampaignSpec, EpisodeResult
 
 SCHEMA_VERSION = 2  # 2: tallies
@@ -70,7 +71,7 @@ INSERT INTO tallies SELECT campaign, 'retries', COUNT(*) FROM attempts GROUP BY 
 """
 
 
-class StoreError(RuntimeError):
+class StoreError(OrchestratorError, RuntimeError):
     """Raised when the results store cannot be used (another campaign's seeds, a newer schema,
     a damaged file, a failed write)."""
 

@@ -40,6 +40,7 @@ from schemas._protocol import (
     StageInfo,
 )
 from simhost import _transport
+from simhost._errors import SimHostError
 from simhost._outputs import OutputFileError, OutputFiles
 from simhost._wire import decode_observation, decode_reply, encode
 
@@ -49,7 +50,7 @@ _MATCH_WAIT_S = 5.0  # at most this long for the host's subscriber before the fi
 _HELLO_RESEND_S = 0.5  # then hello is resent at this interval until a reply comes
 
 
-class HostError(RuntimeError):
+class HostError(SimHostError, RuntimeError):
     """Raised when the host answers a request with an error reply."""
 
     def __init__(self, code: str, message: str, fatal: bool) -> None:

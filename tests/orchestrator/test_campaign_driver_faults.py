@@ -65,7 +65,7 @@ def test_a_dead_drivers_containers_are_gone_within_a_minute(docker_engine: Any,
 def test_a_full_disk_stops_the_campaign_cleanly(docker_engine: Any, ray_tmp: Path  # noqa: F811
                                                  ) -> None:
     """The output folder is a small filesystem that fills up mid-campaign: one message,
-    exit 4, containers and output mounts gone, every committed result still there, and
+    exit 5, containers and output mounts gone, every committed result still there, and
     rebuild-store plus a second run finish the campaign once there is room."""
     build_campaign_images(docker_engine, "waiting")
     folder = short_dir("eagc-df-")
@@ -88,7 +88,7 @@ def test_a_full_disk_stops_the_campaign_cleanly(docker_engine: Any, ray_tmp: Pat
             except OSError:
                 pass
         _, err = proc.communicate(timeout=120)
-        assert proc.returncode == 4, err[-3000:]
+        assert proc.returncode == 5, err[-3000:]
         assert "Traceback" not in err
         flat = " ".join(err.split())
         assert "could not write" in flat and "committed are kept" in flat, flat[-1500:]
@@ -111,7 +111,7 @@ def test_a_full_disk_stops_the_campaign_cleanly(docker_engine: Any, ray_tmp: Pat
 def test_losing_the_whole_ray_stops_the_campaign_cleanly(docker_engine: Any,
                                                          ray_tmp: Path) -> None:  # noqa: F811
     """Every Ray process of the campaign is killed (GCS, raylet, workers): the driver says
-    so within seconds (not Ray's 60 s abort), exits 5, removes its containers, keeps what
+    so within seconds (not Ray's 60 s abort), exits 6, removes its containers, keeps what
     was committed, and charges no in-flight episode a retry."""
     build_campaign_images(docker_engine, "waiting")
     folder = short_dir("eagc-rl-")
@@ -127,7 +127,7 @@ def test_losing_the_whole_ray_stops_the_campaign_cleanly(docker_engine: Any,
     end_processes(ray, grace_s=0.5)
     _, err = proc.communicate(timeout=50)  # Ray alone would abort only after 60 s
     took = time.time() - lost
-    assert proc.returncode == 5, (proc.returncode, err[-3000:])
+    assert proc.returncode == 6, (proc.returncode, err[-3000:])
     flat = " ".join(err.split())
     assert "Ray cluster stopped answering" in flat and "Traceback" not in err, flat[-1500:]
     assert _containers(name) == [], f"left after {took:.0f} s"

@@ -85,7 +85,7 @@ def test_a_lost_store_is_refused_then_rebuilt(ray_tmp: Path, damage: str) -> Non
     store.write_bytes(b"" if damage == "empty" else b"\x00garbage\xff" * 500)
 
     again = _cli(ray_tmp, "run", str(path), "--no-progress")
-    assert again.returncode == 4, again.stderr[-3000:]  # refused: nothing ran twice
+    assert again.returncode == 5, again.stderr[-3000:]  # refused: nothing ran twice
     assert "eagc campaign rebuild-store" in " ".join(again.stderr.split())
     assert "Traceback" not in again.stderr
 

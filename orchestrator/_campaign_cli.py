@@ -47,6 +47,9 @@ def _driver_failures() -> Iterator[None]:
 
     With the Ray cluster gone the process leaves at once (``os._exit``): Ray's exit hooks
     would wait for the dead GCS."""
+    import os
+    import sys
+
     from orchestrator._campaign import EXIT_STORE, DriverFailure
     from orchestrator._cli_common import say_error
     from orchestrator._store import StoreError

@@ -14,7 +14,8 @@ Files (``output`` is resolved against the working directory, archives against th
 campaign file's folder)::
 
     <output>/results.sqlite            the results store (any number of campaigns)
-    <output>/<campaign>/events.jsonl   started / committed / retry / quarantined / cancelled
+    <output>/<campaign>/events.jsonl   submitted / started / committed / retry / quarantined /
+                                       cancelled / failed / finished
     <output>/<campaign>/driver.lock    one driver per campaign
     <output>/<campaign>/ep…/           episode folders (organizer side)
 

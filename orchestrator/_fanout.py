@@ -158,7 +158,14 @@ def _runtime(job: EpisodeJob) -> Any:
     return DockerRuntime()
 
 
-@ray.remote(max_retries=0)
+#: Episodes one Ray worker process runs before Ray replaces it: whatever a long-lived
+#: process would accumulate per episode (the bench_soak.py run of this change found one fd
+#: and an SHM segment per episode, from the host's Zenoh sessions) stays bounded. A new
+#: worker costs a few seconds of imports, once per this many episodes.
+EPISODES_PER_WORKER = 50
+
+
+@ray.remote(max_retries=0, max_calls=EPISODES_PER_WORKER)
 def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
     """Runs one episode on whatever node Ray chose; never raises for agent faults."""
     from orchestrator import _reaper

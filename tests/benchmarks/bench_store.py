@@ -6,7 +6,9 @@ metrics). Both are timed together at campaigns of 1,000, 10,000 and 100,000 comm
 beside the peer measured in the same run, interleaved in rounds so that both see the same
 disk: a bare SQLite insert of the same row into a table with the same key, journal mode and
 synchronous setting, one transaction per insert (what a store with no counting and no
-bookkeeping at all would cost). Both are bound by the disk's fsync: the ratio is ours.
+bookkeeping at all would cost). Both are bound by the disk's fsync: the ratio is ours. The
+last column is the store as it was before its counts were kept (each commit followed by a
+recount of the campaign's rows), measured the same way.
 
 The rows are real ``EpisodeResult`` JSON (about 1.5 kB). Filling a store to 100,000 rows
 is done with one bulk transaction (not timed); then ``--commits`` commits are timed at each
@@ -96,6 +98,26 @@ class StoreRun:
         self.store.close()
 
 
+#: What counts() did before the tallies (issue 13 §7): recount the campaign's rows.
+_RECOUNT = ("SELECT status, COUNT(*) FROM episodes WHERE campaign=? GROUP BY status",
+            "SELECT COUNT(*) FROM quarantine WHERE campaign=?",
+            "SELECT COUNT(*) FROM attempts WHERE campaign=?")
+
+
+class RecountRun(StoreRun):
+    """The same commits, followed by the recount the driver used to do after each one."""
+
+    def run(self, n: int) -> float:
+        t = time.perf_counter()
+        for i in range(self.next, self.next + n):
+            self.store.commit("bench", EpisodeKey("t0", "standard", i), _result(i), retry=0,
+                              node="n")
+            for sql in _RECOUNT:
+                self.store.db.execute(sql, ("bench",)).fetchall()
+        self.next += n
+        return time.perf_counter() - t
+
+
 class BareRun:
     """Bare SQLite at ``size`` rows, same key, journal and sync: ``run(n)`` times n inserts,
     one transaction each."""
@@ -131,18 +153,24 @@ class BareRun:
         self.db.close()
 
 
-def measure(folder: Path, size: int, commits: int, rounds: int = 10) -> tuple[float, float]:
-    """(eagc, bare) commits/s, interleaved in ``rounds`` so that both see the same disk."""
+def measure(folder: Path, size: int, commits: int,
+            rounds: int = 10) -> tuple[float, float, float]:
+    """(eagc, bare, recount) commits/s, interleaved in ``rounds`` so that all see the same
+    disk (the recount, slow at large sizes, gets a tenth of the commits)."""
     ours, bare = StoreRun(folder, size), BareRun(folder, size)
+    (folder / f"store-{size}.sqlite").parent.joinpath("recount").mkdir(exist_ok=True)
+    recount = RecountRun(folder / "recount", size)
     chunk = max(1, commits // rounds)
-    t_ours = t_bare = 0.0
+    small = max(1, chunk // 10)
+    t_ours = t_bare = t_recount = 0.0
     for _ in range(rounds):
         t_ours += ours.run(chunk)
         t_bare += bare.run(chunk)
-    ours.close()
-    bare.close()
+        t_recount += recount.run(small)
+    for run in (ours, bare, recount):
+        run.close()
     n = chunk * rounds
-    return n / t_ours, n / t_bare
+    return n / t_ours, n / t_bare, small * rounds / t_recount
 
 
 def main() -> None:
@@ -155,12 +183,14 @@ def main() -> None:
     print(f"load average before: {load_average()}")
     print(f"{args.commits} commits timed at each size; durable (WAL, synchronous=FULL)")
     print()
-    print(f"{'rows in store':>14}  {'eagc commit+counts/s':>21}  {'bare insert/s':>14}  ratio")
+    print(f"{'rows in store':>13} {'eagc commit+counts/s':>21} {'bare insert/s':>14} "
+          f"{'ratio':>6} {'before: +recount/s':>19}")
     with tempfile.TemporaryDirectory(prefix="eagc-bench-store-") as tmp:
         folder = Path(tmp)
         for size in sizes:
-            ours, bare = measure(folder, size, args.commits)
-            print(f"{size:>14,}  {ours:>21,.0f}  {bare:>14,.0f}  {ours / bare:5.2f}")
+            ours, bare, before = measure(folder, size, args.commits)
+            print(f"{size:>13,} {ours:>21,.0f} {bare:>14,.0f} {ours / bare:>6.2f} "
+                  f"{before:>19,.0f}")
     print(f"\nload average after: {load_average()}")
     print("goal: >= 1,000 eagc commits/s at 100,000 rows")
 

@@ -71,7 +71,7 @@ def _files(folder: Path, skip: str | None = None) -> tuple[int, int]:
 
 
 def _logs(folder: Path) -> int:
-    return sum(_files(p)[1] for p in folder.glob("session_*/logs"))
+    return sum(_files(p)[1] for p in folder.glob("**/session_*/logs"))
 
 
 def _committed(store: Path, name: str) -> int:

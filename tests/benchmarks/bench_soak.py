@@ -71,7 +71,9 @@ def _files(folder: Path, skip: str | None = None) -> tuple[int, int]:
 
 
 def _logs(folder: Path) -> int:
-    return sum(_files(p)[1] for p in folder.glob("**/session_*/logs"))
+    # Each session once (session_latest is a link to the newest).
+    return sum(_files(p)[1] for p in folder.glob("**/session_*/logs")
+               if not p.parent.is_symlink())
 
 
 def _committed(store: Path, name: str) -> int:

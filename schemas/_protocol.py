@@ -1,17 +1,21 @@
 """Protocol v1 messages between a team's agent and the sim host.
 
-Every message travels as one Zenoh payload: a 4-byte little-endian header length, a JSON
-header validated by one of the models below (discriminated on ``kind``), then the raw bytes
-of the tensors the header lists (row-major, in order). See ``simhost._wire``.
+Every message travels as one Zenoh payload: the 4-byte magic ``EGC1``, a u32 little-endian
+header length, a JSON header validated by one of the models below (discriminated on
+``kind``) and space-padded to a multiple of 8 bytes, then the raw bytes of the tensors the
+header lists (row-major, little-endian, in order, each at the next multiple of 8). The byte
+layout is specified in ``schemas/PROTOCOL.md`` and implemented in ``simhost._wire``.
 
 Sequence numbers belong to the host. The agent sends ``seq`` equal to the ``seq`` of the
 last reply it received (0 before ``hello``). A reply that moves the episode forward carries
 ``seq + 1``; an error reply carries the host's current ``seq`` and changes nothing, so the
-agent can resynchronise and retry.
+agent can resynchronise and retry. A request may carry an ``id`` of the agent's choosing;
+the reply to it echoes the ``id``, so that an agent matches replies to requests.
 """
 
 from __future__ import annotations
 
+from enum import StrEnum
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -65,9 +69,48 @@ class StageInfo(_Frozen):
     description: str = ""
 
 
+class EndReason(StrEnum):
+    """Why an episode ended: one vocabulary for the host, the worker and the track plugins.
+
+    A ``StrEnum``: each member equals its plain string (``EndReason.BUDGET == "budget"``).
+    """
+
+    #: The agent ended the last stage, or the track declared the task done.
+    COMPLETED = "completed"
+    #: Track 2: an attempt succeeded (the episode ends at the first success).
+    SUCCESS = "success"
+    #: Track 2: the last attempt ended without success.
+    ATTEMPTS_USED = "attempts_used"
+    #: The last stage's wall-clock budget ran out.
+    BUDGET = "budget"
+    #: The last stage's step cap was reached.
+    STEPS = "steps"
+    #: The evaluator stopped the episode (e.g. the agent's container exited).
+    STOPPED = "stopped"
+    #: The agent's liveliness token went (its process or session ended).
+    AGENT_LOST = "agent_lost"
+    #: The agent did not say hello and reset within the startup budget.
+    STARTUP_TIMEOUT = "startup_timeout"
+    #: Too many protocol errors, or a protocol the host does not speak.
+    PROTOCOL_VIOLATION = "protocol_violation"
+    #: A host or track bug (an infrastructure failure, not the agent's).
+    INTERNAL_ERROR = "internal_error"
+    #: The episode never began.
+    NOT_STARTED = "not_started"
+
+
+RequestId = Annotated[int, Field(ge=0, le=2**53 - 1)]
+
+
 # ----------------------------------------------------------------------------- requests
 class _Request(_Frozen):
     seq: int = Field(ge=0, description="The seq of the last reply received (0 before hello).")
+    id: RequestId | None = Field(
+        default=None,
+        description="Optional, the agent's own: echoed in the reply to this request, so that "
+        "the agent can match replies to requests (e.g. ignore a second reply to a resent "
+        "hello). A resent request keeps its id.",
+    )
     tensors: tuple[TensorMeta, ...] = ()
 
 
@@ -135,10 +178,17 @@ class ActionResult(_Frozen):
 
 class _Reply(_Frozen):
     seq: int = Field(ge=0)
+    id: RequestId | None = Field(
+        default=None,
+        description="The id of the request this answers, when it carried one (also on an "
+        "error reply, whenever the request's header could be read).",
+    )
     tensors: tuple[TensorMeta, ...] = ()
 
 
 class HelloReply(_Reply):
+    """The reply to hello: the episode's specs and stages, sent once."""
+
     kind: Literal["hello"] = "hello"
     protocol: str = PROTOCOL_VERSION
     episode: str = Field(description="The opaque episode id.")
@@ -146,7 +196,7 @@ class HelloReply(_Reply):
     observation_spec: tuple[FieldSpec, ...]
     action_spec: tuple[FieldSpec, ...]
     stages: tuple[StageInfo, ...]
-    max_request_bytes: int
+    max_request_bytes: int = Field(description="Longest request the host reads (bytes).")
     startup_budget_s: float = Field(description="Time left to send reset after this reply.")
 
 
@@ -164,7 +214,9 @@ class ObservationReply(_Reply):
     action: ActionResult | None = None
     messages: tuple[HostMessage, ...] = ()
     episode_over: bool = False
-    end_reason: str | None = None
+    end_reason: EndReason | None = Field(
+        default=None, description="Why the episode ended, once ``episode_over``."
+    )
 
 
 ErrorCode = Literal[

@@ -20,7 +20,15 @@ from typing import Any, ClassVar
 
 from pydantic import BaseModel
 
-from schemas import EpisodeResult, FileCheck, SchemaError, ScoreCard, parse_json, parse_jsonl
+from schemas import (
+    EndReason,
+    EpisodeResult,
+    FileCheck,
+    SchemaError,
+    ScoreCard,
+    parse_json,
+    parse_jsonl,
+)
 from schemas._result import EpisodeStatus
 from simhost._episode import StageSpec, TrackEpisode
 
@@ -50,7 +58,7 @@ class ScoringInput:
 
     scenario: Scenario
     status: EpisodeStatus
-    end_reason: str
+    end_reason: EndReason
     stages_reached: tuple[str, ...]
     outcome: Mapping[str, Any]
     files: Mapping[str, Any]

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from plugins._base import FileRule, Scenario, ScoringInput, TrackPlugin
-from schemas import FieldSpec, ScoreCard, WorldModel
+from schemas import EndReason, FieldSpec, ScoreCard, WorldModel
 from schemas._protocol import ActionResult, HostMessage
 from simhost._episode import Observation, StageEnd, StageSpec, StepOutcome, TrackEpisode
 
@@ -114,7 +114,7 @@ class SanityEpisode(TrackEpisode):
                     observation=self.observe(),
                     action=ActionResult(applied=True, ok=True),
                     episode_over=True,
-                    end_reason="completed",
+                    end_reason=EndReason.COMPLETED,
                     events=({"event": "task_completed", "step": self._steps},),
                 )
         return StepOutcome(

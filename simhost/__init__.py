@@ -2,11 +2,20 @@
 
 Nothing heavy is imported here: team containers ``import simhost.agent`` with only pydantic,
 eclipse-zenoh and numpy installed. Names below load their module on first use.
+
+Gymnasium (≥ 1.0) convention: where gymnasium is installed, ``import simhost`` registers
+every eagc environment, so that ``gymnasium.make("simhost:eagc/House-v0")`` works in a fresh
+process. Each track keeps its ids in its own ``simhost/<track>/_register.py`` (a
+``register_envs()`` with string entry points: MuJoCo loads only when an env is made); every
+such module is found here, so a new track needs nothing else. Without gymnasium (a team's
+container) nothing is registered and nothing more is imported.
 """
 
 from __future__ import annotations
 
 import importlib
+import warnings
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 _EXPORTS = {
@@ -50,6 +59,7 @@ __all__ = [
     "TrackEpisode",
     "check_action",
     "encode_png",
+    "env_ids",
     "write_png",
 ]
 
@@ -68,3 +78,32 @@ def __getattr__(name: str) -> Any:
     if module is None:
         raise AttributeError(f"module 'simhost' has no attribute {name!r}")
     return getattr(importlib.import_module(module), name)
+
+
+def env_ids() -> list[str]:
+    """The gymnasium ids of every eagc environment registered (empty without gymnasium)."""
+    try:
+        from gymnasium.envs.registration import registry
+    except ImportError:
+        return []
+    return sorted(
+        env_id for env_id, spec in registry.items()
+        if isinstance(spec.entry_point, str) and spec.entry_point.startswith("simhost.")
+    )
+
+
+def _register_envs() -> None:
+    try:
+        import gymnasium  # noqa: F401 - only to know whether it is there
+    except ImportError:
+        return
+    for register in sorted(Path(__file__).parent.glob("*/_register.py")):
+        track = register.parent.name
+        try:
+            importlib.import_module(f"simhost.{track}._register").register_envs()
+        except ImportError as e:  # e.g. a track's own dependency missing in this image
+            warnings.warn(f"simhost: the {track} environments are not registered: {e}",
+                          stacklevel=2)
+
+
+_register_envs()

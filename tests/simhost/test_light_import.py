@@ -36,7 +36,8 @@ LIGHT_DISTRIBUTIONS = (
 
 
 def _imported_after(code: str) -> list[str]:
-    probe = f"{code}\nimport json, sys\nprint(json.dumps(sorted(sys.modules)))"
+    probe = (f"{code}\nimport json, sys\n"
+             "print(json.dumps(sorted(k for k, v in sys.modules.items() if v is not None)))")
     out = subprocess.run(
         [sys.executable, "-c", probe], capture_output=True, text=True, check=True, cwd=ROOT
     )
@@ -47,11 +48,21 @@ def _heavy(modules: list[str], heavy: tuple[str, ...] = HEAVY) -> list[str]:
     return sorted(m for m in modules if m.split(".")[0] in heavy)
 
 
+_CLIENT = "import simhost, simhost.agent\nfrom simhost.agent import HostError, RemoteEnv, TimeStep"
+
+
 def test_agent_client_imports_nothing_heavy():
-    modules = _imported_after(
-        "import simhost, simhost.agent\nfrom simhost.agent import HostError, RemoteEnv, TimeStep"
-    )
+    # As in a team's container: no gymnasium (an import of it fails), so nothing registers.
+    modules = _imported_after(f"import sys\nsys.modules['gymnasium'] = None\n{_CLIENT}")
     assert not _heavy(modules), "simhost.agent must stay light (team containers import it)"
+
+
+def test_agent_client_beside_gymnasium_imports_no_simulator():
+    # Where gymnasium is installed, ``import simhost`` registers the environments
+    # (gymnasium's convention), still without MuJoCo or anything organizer-side.
+    modules = _imported_after(_CLIENT)
+    assert "gymnasium" in modules
+    assert not _heavy(modules, tuple(h for h in HEAVY if h != "gymnasium"))
 
 
 def test_schemas_import_only_pydantic():

@@ -3,19 +3,27 @@
 Nothing heavy is imported here: team containers ``import simhost.agent`` with only pydantic,
 eclipse-zenoh and numpy installed. Names below load their module on first use.
 
-Gymnasium (≥ 1.0) convention: where gymnasium is installed, ``import simhost`` registers
-every eagc environment, so that ``gymnasium.make("simhost:eagc/House-v0")`` works in a fresh
-process. Each track keeps its ids in its own ``simhost/<track>/_register.py`` (a
-``register_envs()`` with string entry points: MuJoCo loads only when an env is made); every
-such module is found here, so a new track needs nothing else. Without gymnasium (a team's
-container) nothing is registered and nothing more is imported.
+Gymnasium (≥ 1.0) convention: ``import simhost`` registers every eagc environment, so that
+``gymnasium.make("simhost:eagc/House-v0")`` works in a fresh process, as does
+``import simhost`` followed by ``gymnasium.make("eagc/House-v0")``. Each track keeps its ids
+in its own ``simhost/<track>/_register.py`` (a ``register_envs()`` with string entry points:
+MuJoCo loads only when an env is made); every such module is found here, so a new track
+needs nothing else. When gymnasium is not imported yet, the registration runs the moment it
+is (a one-shot import hook), so that a process that never uses gymnasium (a team's agent,
+which may not even have it) pays nothing for it: no gymnasium, no track package imported.
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.abc
+import importlib.machinery
+import importlib.util
+import sys
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
+from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 _EXPORTS = {
@@ -81,7 +89,7 @@ def __getattr__(name: str) -> Any:
 
 
 def env_ids() -> list[str]:
-    """The gymnasium ids of every eagc environment registered (empty without gymnasium)."""
+    """The gymnasium ids of every eagc environment (imports gymnasium; empty without it)."""
     try:
         from gymnasium.envs.registration import registry
     except ImportError:
@@ -93,17 +101,40 @@ def env_ids() -> list[str]:
 
 
 def _register_envs() -> None:
-    try:
-        import gymnasium  # noqa: F401 - only to know whether it is there
-    except ImportError:
-        return
+    """Calls every track's ``register_envs()`` (gymnasium is imported by now)."""
     for register in sorted(Path(__file__).parent.glob("*/_register.py")):
         track = register.parent.name
         try:
             importlib.import_module(f"simhost.{track}._register").register_envs()
-        except ImportError as e:  # e.g. a track's own dependency missing in this image
-            warnings.warn(f"simhost: the {track} environments are not registered: {e}",
-                          stacklevel=2)
+        except Exception as e:  # noqa: BLE001 - never break the import of gymnasium
+            warnings.warn(f"simhost: the {track} environments are not registered: "
+                          f"{type(e).__name__}: {e}", stacklevel=2)
 
 
-_register_envs()
+class _RegisterWithGymnasium(importlib.abc.MetaPathFinder):
+    """One shot: when gymnasium is imported, registers the envs right after it loads."""
+
+    def find_spec(self, fullname: str, path: Sequence[str] | None,
+                  target: ModuleType | None = None) -> importlib.machinery.ModuleSpec | None:
+        if fullname != "gymnasium":
+            return None
+        if self in sys.meta_path:
+            sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(fullname)
+        loader = None if spec is None else spec.loader
+        if loader is None or not hasattr(loader, "exec_module"):
+            return spec
+        load = loader.exec_module
+
+        def load_and_register(module: ModuleType) -> None:
+            load(module)
+            _register_envs()
+
+        loader.exec_module = load_and_register  # type: ignore[method-assign]
+        return spec
+
+
+if sys.modules.get("gymnasium") is not None:
+    _register_envs()
+elif not any(isinstance(f, _RegisterWithGymnasium) for f in sys.meta_path):
+    sys.meta_path.insert(0, _RegisterWithGymnasium())

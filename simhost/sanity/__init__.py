@@ -14,16 +14,17 @@ from simhost.sanity._register import ENV_ID, register_envs
 if TYPE_CHECKING:
     from simhost.sanity._arena import (
         HALF,
+        MAX_DEPTH,
         REACH_RADIUS,
         SENSE_RADIUS,
         SanityArenaEnv,
         sample_point,
     )
 
-_LAZY = ("HALF", "REACH_RADIUS", "SENSE_RADIUS", "SanityArenaEnv", "sample_point")
+_LAZY = ("HALF", "MAX_DEPTH", "REACH_RADIUS", "SENSE_RADIUS", "SanityArenaEnv", "sample_point")
 
-__all__ = ["ENV_ID", "HALF", "REACH_RADIUS", "SENSE_RADIUS", "SanityArenaEnv", "register_envs",
-           "sample_point"]
+__all__ = ["ENV_ID", "HALF", "MAX_DEPTH", "REACH_RADIUS", "SENSE_RADIUS", "SanityArenaEnv",
+           "register_envs", "sample_point"]
 
 
 def __getattr__(name: str) -> Any:

@@ -30,10 +30,15 @@ def _run(code: str) -> str:
     return out.stdout.splitlines()[-1]
 
 
-def test_import_simhost_registers_every_track_without_mujoco():
+@pytest.mark.parametrize("order", ["simhost first", "gymnasium first"])
+def test_import_simhost_registers_every_track_without_mujoco(order):
+    first, second = ("simhost", "gymnasium") if order == "simhost first" else (
+        "gymnasium", "simhost")
     report = json.loads(_run(
-        "import json, sys, simhost\n"
-        "print(json.dumps({'ids': simhost.env_ids(), 'mujoco': 'mujoco' in sys.modules}))"
+        f"import json, sys\nimport {first}\nimport {second}\n"
+        "from gymnasium.envs.registration import registry\n"
+        "ids = sorted(i for i, s in registry.items() if str(s.entry_point).startswith('simhost.'))"
+        "\nprint(json.dumps({'ids': ids, 'mujoco': 'mujoco' in sys.modules}))"
     ))
     assert not report["mujoco"], "registering must not import MuJoCo"
     assert report["ids"] == IDS

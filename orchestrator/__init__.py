@@ -1,7 +1,8 @@
 """Campaigns and episodes: container runtimes, the episode worker, images, the CLI.
 
 Public API: ``run_episode``, ``EpisodeSpec``, ``DockerRuntime``, ``LocalProcessRuntime``,
-``AgentRuntime``, ``AgentLaunch``, ``AgentHandle``, ``collect``. Names load on first use.
+``AgentRuntime``, ``AgentLaunch``, ``AgentHandle``, ``collect``; errors derive from
+``OrchestratorError``. Names load on first use.
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ _EXPORTS = {
     "AgentHandle": "orchestrator._runtime",
     "AgentStartError": "orchestrator._runtime",
     "InfraError": "orchestrator._runtime",
+    "OrchestratorError": "orchestrator._errors",
+    "UsageError": "orchestrator._errors",
     "collect": "orchestrator._collect",
     "build_all": "orchestrator._images",
 }
@@ -33,6 +36,8 @@ __all__ = [
     "EpisodeSpec",
     "InfraError",
     "LocalProcessRuntime",
+    "OrchestratorError",
+    "UsageError",
     "build_all",
     "collect",
     "new_episode_id",

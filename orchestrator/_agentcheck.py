@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from orchestrator._report import file_problem
 from schemas import EpisodeResult, EpisodeStatus
 
 
@@ -37,7 +38,7 @@ def contract_checks(result: EpisodeResult) -> list[Check]:
         Check("no protocol errors", not errors, ", ".join(f"{k}: {v}" for k, v in errors.items())),
         Check("its files are there and valid", all(f.ok for f in result.files)
               and bool(result.files),
-              "; ".join(f"{f.name}: {f.reason.splitlines()[0]}" for f in result.files
+              "; ".join(f"{f.name}: {file_problem(f.reason)}" for f in result.files
                         if not f.ok)),
         Check("it exits by itself when the episode is over",
               exit_ is not None and not exit_.killed_by_host and exit_.exit_code == 0,

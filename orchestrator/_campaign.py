@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from orchestrator._errors import OrchestratorError
 from schemas import CampaignSpec, EpisodeResult, SchemaError, parse_json
 
 log = logging.getLogger("eagc.campaign")
@@ -42,7 +43,7 @@ log = logging.getLogger("eagc.campaign")
 MAX_RUNS_DIR = 100 - len("/ep0123456789abcdef/sock/zenoh.sock")
 
 
-class CampaignError(RuntimeError):
+class CampaignError(OrchestratorError, RuntimeError):
     """Raised when a campaign cannot start: images, the cluster, another driver, the store."""
 
 

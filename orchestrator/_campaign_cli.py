@@ -1,17 +1,13 @@
-"""``eagc campaign …``: run, leaderboard, commit, reveal, status; and the local demo campaign.
+"""``eagc campaign …``: run, leaderboard, commit, reveal, status.
 
-Mount with ``app.add_typer(campaign_app, name="campaign")``. ``local_campaign`` is what
-``eagc demo`` calls: the example agents of every installed track, on an embedded Ray.
-Run standalone as ``python -m orchestrator._campaign_cli``.
+Mount with ``app.add_typer(campaign_app, name="campaign")``; run standalone as
+``python -m orchestrator._campaign_cli``. Errors end in one line with the exit codes of
+``orchestrator._cli_common``. ``eagc demo`` lives in ``orchestrator._demo``.
 """
 
 from __future__ import annotations
 
 import logging
-import os
-import re
-import sys
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -21,13 +17,18 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from orchestrator._cli_common import EXIT_CODES_HELP, ExitCode, OneLineErrors
+
 campaign_app = typer.Typer(
+    cls=OneLineErrors,
     help="Campaigns: run on Ray, resume, leaderboards, seed commitment and reveal.",
+    epilog=EXIT_CODES_HELP,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
 )
-out = Console(width=None if sys.stdout.isatty() else 160)  # piped: room for the columns
-err = Console(stderr=True, width=None if sys.stderr.isatty() else 160)
+# Width: $COLUMNS when set, else the terminal's, else 80 (rich decides at each print).
+out = Console()
+err = Console(stderr=True)
 
 CampaignArg = Annotated[Path, typer.Argument(help="The campaign file (YAML).")]
 FORMATS = ("table", "csv", "json", "md")
@@ -35,19 +36,9 @@ FORMATS = ("table", "csv", "json", "md")
 
 @contextmanager
 def _errors() -> Iterator[None]:
-    """Known errors print as one clear message and exit 2, without a traceback."""
-    from orchestrator._campaign import CampaignError
-    from orchestrator._runtime import InfraError
-    from orchestrator._seeds import SeedError
-    from orchestrator._store import StoreError
-    from plugins import PluginError
-    from schemas import SchemaError
-
-    try:
-        yield
-    except (SchemaError, CampaignError, SeedError, StoreError, PluginError, InfraError) as e:
-        err.print(f"[bold red]error:[/] {e}", highlight=False)
-        raise typer.Exit(2) from None
+    """Kept for the commands that use it: every command's errors already end in one line
+    (``OneLineErrors``), whatever raises them."""
+    yield
 
 
 def _load(path: Path) -> Any:
@@ -63,23 +54,40 @@ def _store(spec: Any) -> Any:
 
     path = store_path(spec)
     if not path.exists():
-        err.print(f"[yellow]no results yet: {path} does not exist (run the campaign first)[/]")
-        raise typer.Exit(1)
+        err.print(f"[yellow]no results yet: {path} does not exist (run the campaign first)[/]",
+                  highlight=False)
+        raise typer.Exit(ExitCode.ERROR)
     return ResultsStore(path)
 
 
-def _print_leaderboard(spec: Any, fmt: str = "table", output: Path | None = None) -> None:
+def _print_leaderboard(spec: Any, fmt: str = "table", output: Path | None = None,
+                       team: str | None = None) -> None:
     from orchestrator._leaderboard import build_leaderboard
+    from orchestrator._teamreport import team_report
 
     with _store(spec) as store:
         board = build_leaderboard(spec, store)
-    if output is not None:
-        output.write_text(board.render(fmt))
-        err.print(f"leaderboard written to {output}")
-    elif fmt == "table":
-        out.print(board.to_rich())
+        report = None if team is None else team_report(spec, store, board, team)
+    if report is not None:
+        text = report.to_json() + "\n" if fmt == "json" else report.to_text()
     else:
-        print(board.render(fmt), end="")
+        text = board.render(fmt)
+    if output is not None:
+        output.write_text(text)
+        err.print(f"leaderboard written to {output}", highlight=False)
+    else:
+        print(text, end="")
+
+
+def where_results(spec: Any, source: Path | None) -> list[str]:
+    """Where a campaign's results are, and how to see them again."""
+    from orchestrator._campaign import campaign_dir, store_path
+
+    again = f"eagc leaderboard {source}" if source else "eagc leaderboard CAMPAIGN.yaml"
+    return [f"results of {spec.name}: {store_path(spec)} (SQLite, one row per episode)",
+            f"  episode folders and events.jsonl: {campaign_dir(spec)}/",
+            f"  see again: {again}  ·  {again.replace('leaderboard', 'status', 1)}",
+            f"  one team's episodes: {again} --team NAME"]
 
 
 @campaign_app.command("run")
@@ -108,12 +116,14 @@ def run_cmd(
         report = run_campaign(spec, options, console=err)
     err.print(f"{spec.name}: {report.committed} committed this run, {report.skipped} already "
               f"in the store, {report.retries} retried, {report.quarantined} quarantined, "
-              f"{report.wall_s:.1f} s")
+              f"{report.wall_s:.1f} s", highlight=False)
     _print_leaderboard(spec)
+    for line in where_results(spec, campaign):
+        err.print(line, highlight=False, soft_wrap=True)
     if report.cancelled:
-        raise typer.Exit(130)
+        raise typer.Exit(ExitCode.CANCELLED)
     if report.quarantined:
-        raise typer.Exit(3)
+        raise typer.Exit(ExitCode.INFRA)
 
 
 @campaign_app.command("leaderboard")
@@ -122,11 +132,19 @@ def leaderboard_cmd(
     format: Annotated[str, typer.Option("--format", "-f", help="table, csv, json or md.")
                       ] = "table",
     output: Annotated[Path | None, typer.Option(help="Write to this file.")] = None,
+    team: Annotated[str | None, typer.Option(
+        help="One team's report: its row and every one of its episodes (verdict, stage "
+             "reached, limit hit, its agent's last lines); table or json.")] = None,
 ) -> None:
-    """The leaderboard (per split, final, tie-breaks) and the failed episodes."""
+    """The leaderboard (per split, final, tie-breaks) and the failed episodes, or one
+    team's own report (--team). Text fits $COLUMNS (80 by default)."""
+    from orchestrator._errors import UsageError
+
     if format not in FORMATS:
-        raise typer.BadParameter(f"format must be one of {', '.join(FORMATS)}")
-    _print_leaderboard(_load(campaign), format, output)
+        raise UsageError(f"--format {format!r}: one of {', '.join(FORMATS)}")
+    if team is not None and format not in ("table", "json"):
+        raise UsageError(f"--team reports are table or json, not {format!r}")
+    _print_leaderboard(_load(campaign), format, output, team)
 
 
 def _seeds(spec: Any) -> tuple[Any, list[Any]]:
@@ -203,121 +221,15 @@ def status_cmd(campaign: CampaignArg) -> None:
         if status not in ("quarantined", "retries"):
             table.add_row(f"  {status}", str(n))
     table.add_row("quarantined", str(counts["quarantined"]))
-    table.add_row("retries (infrastructure)", str(counts["retries"]))
+    table.add_row(f"retries (infrastructure; {spec.retries} allowed)", str(counts["retries"]))
     missing = [k for k in planned if k not in done and k not in {q.key for q in held}]
     table.add_row("missing", str(len(missing)))
     out.print(table)
     for q in held:
-        out.print(f"[red]quarantined[/] {q.key} after {q.retries} retries: {q.message}")
-
-
-# ---------------------------------------------------------------------------- the demo
-DEMO_LIMITS: dict[str, dict[str, Any]] = {
-    "sanity": {"memory_mb": 512},
-    # The official budgets are minutes long: the demo scales them down and caps steps.
-    "*": {"memory_mb": 1024, "time_scale": 0.02, "max_steps_per_stage": 100},
-}
-
-
-def example_agents_by_track(tracks: list[str]) -> dict[str, dict[str, Path]]:
-    """Example agent images of each track: tag → folder.
-
-    An ``examples/<folder>/Dockerfile`` belongs to a track when it says
-    ``LABEL eagc.track=<track>``, or else when its folder name starts with ``<track>_``.
-    """
-    from orchestrator._images import example_agents
-
-    found: dict[str, dict[str, Path]] = {t: {} for t in tracks}
-    for tag, folder in example_agents().items():
-        label = re.search(r"eagc\.track\s*=\s*\"?([A-Za-z0-9_.-]+)",
-                          (folder / "Dockerfile").read_text())
-        track = label.group(1) if label else next(
-            (t for t in sorted(tracks, key=len, reverse=True) if folder.name.startswith(t + "_")),
-            None)
-        if track in found:
-            found[track][tag] = folder
-    return found
-
-
-def _build_examples(examples: dict[str, dict[str, Path]], console: Console
-                    ) -> dict[str, dict[str, Path]]:
-    """Builds the example agents offline; an agent that fails to build is left out."""
-    from orchestrator._docker import docker_client
-    from orchestrator._images import ImageBuildError, build_agent_base, build_folder
-
-    client = docker_client()
-    built: dict[str, dict[str, Path]] = {}
-    with console.status("building images offline (first time: about a minute)…"):
-        build_agent_base(client, lambda m: console.print(f"[dim]{m}[/]"))
-        for track, agents in examples.items():
-            for tag, folder in agents.items():
-                try:
-                    build_folder(client, folder, tag, lambda m: console.print(f"[dim]{m}[/]"))
-                except ImageBuildError as e:
-                    first = str(e).splitlines()[0]
-                    console.print(f"[yellow]skipping {tag}: it does not build ({first})[/]")
-                    continue
-                built.setdefault(track, {})[tag] = folder
-    return built
-
-
-def local_campaign(*, runtime: str = "auto", episodes: int = 2, workers: int | None = None,
-                   output: Path = Path("runs"), console: Console | None = None) -> int:
-    """A small local campaign per installed track with example agents, then its leaderboard.
-
-    ``runtime``: ``docker`` (images built offline first), ``local`` (agents as plain
-    processes, no sandbox) or ``auto`` (docker when an engine answers). Returns an exit code.
-    """
-    from orchestrator._campaign import CampaignOptions, check_campaign, run_campaign
-    from plugins import PluginError, available_tracks, load_track
-    from schemas import CampaignSpec, Limits, Split, Submission
-
-    console = console or err
-    if runtime == "auto":
-        from orchestrator.cli import _docker_answers
-
-        runtime = "docker" if _docker_answers() else "local"
-        if runtime == "local":
-            console.print("[yellow]No Docker engine answers: the example agents run as local "
-                          "processes (no sandbox).[/]")
-    tracks = []
-    for name in available_tracks():
-        try:
-            tracks.append(load_track(name))
-        except PluginError as e:
-            console.print(f"[yellow]skipping track {name}: {e}[/]")
-    examples = example_agents_by_track([t.name for t in tracks])
-    if runtime == "docker" and any(examples.values()):
-        examples = _build_examples(examples, console)
-    workers = workers or max(1, min(2, os.cpu_count() or 1))
-    stamp = time.strftime("%Y%m%d-%H%M%S")
-    code = 0
-    for plugin in tracks:
-        agents = examples.get(plugin.name) or {}
-        if not agents:
-            console.print(f"[dim]track {plugin.name}: no example agent, skipped[/]")
-            continue
-        subs = tuple(
-            Submission(team=folder.name, image=tag if runtime == "docker"
-                       else f"python {folder / 'agent.py'}")
-            for tag, folder in agents.items())
-        splits = tuple(Split(name=s, weight=w, episodes=episodes)
-                       for s, (w, _) in plugin.splits.items())
-        limits = DEMO_LIMITS.get(plugin.name, DEMO_LIMITS["*"])
-        spec = CampaignSpec(name=f"demo-{plugin.name}-{stamp}", track=plugin.name,
-                            phase="local", splits=splits, submissions=subs,
-                            limits=Limits(**limits), output=output, runtime=runtime)
-        with _errors():
-            check_campaign(spec, source=f"demo campaign of {plugin.name}")
-            console.print(f"[bold]{spec.name}[/]: {len(subs)} agent(s) × "
-                          f"{sum(s.episodes for s in splits)} episodes, {workers} worker(s), "
-                          f"runtime {runtime}")
-            report = run_campaign(spec, CampaignOptions(workers=workers), console=console)
-        _print_leaderboard(spec)
-        if report.cancelled:
-            return 130
-        code = code or (3 if report.quarantined else 0)
-    return code
+        how = f"retried {q.retries} time{'s' if q.retries != 1 else ''}" if q.retries else (
+            "not retried")
+        out.print(f"[red]quarantined[/] {q.key}: {how} (the campaign allows {spec.retries}): "
+                  f"{q.message}", highlight=False)
 
 
 if __name__ == "__main__":

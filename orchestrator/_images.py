@@ -4,7 +4,9 @@
   mirror apt already uses, then ``docker import``-ed.
 - ``eagc/agent-base:latest``: the base plus the agent client (this repository's wheel and
   its three light dependencies: pydantic, eclipse-zenoh, numpy), installed from wheels
-  downloaded on the host with ``pip install --no-index``; built with no network.
+  downloaded on the host with ``pip install --no-index``; built with no network. The eagc
+  wheel is written by ``orchestrator._wheel`` (no build backend, no download: it works the
+  same in a fresh venv, as root with the system Python, or offline).
 - example agents (``examples/*/Dockerfile``) and test containers built ``FROM`` it.
 
 Each image carries a label with the hash of what it was built from, so a changed client or
@@ -23,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from orchestrator._docker import docker_client
+from orchestrator._errors import OrchestratorError
 from schemas import CONTAINER
 
 REPO = Path(__file__).resolve().parents[1]
@@ -31,7 +34,8 @@ AGENT_BASE_IMAGE = "eagc/agent-base:latest"
 HASH_LABEL = "eagc.build-hash"
 MIRROR = "http://deb.debian.org/debian"
 CLIENT_SOURCES = ("pyproject.toml", "schemas", "simhost/__init__.py", "simhost/agent.py",
-                  "simhost/_wire.py", "simhost/_transport.py", "simhost/_outputs.py")
+                  "simhost/_wire.py", "simhost/_transport.py", "simhost/_outputs.py",
+                  "simhost/_errors.py")
 def example_agents() -> dict[str, Path]:
     """Every ``examples/<name>/Dockerfile``, as tag ``eagc/<name with - for _>:latest``.
 
@@ -49,8 +53,15 @@ def example_agents() -> dict[str, Path]:
 Say = Callable[[str], None]
 
 
-class ImageBuildError(RuntimeError):
-    """Raised when an image cannot be built; the message says which step and why."""
+class ImageBuildError(OrchestratorError, RuntimeError):
+    """Raised when an image cannot be built; the message says which step and why.
+
+    The message is one line; ``detail`` keeps the tool's own output (its last lines).
+    """
+
+    def __init__(self, message: str, detail: str = "") -> None:
+        super().__init__(message)
+        self.detail = detail
 
 
 def _hash_paths(paths: Iterable[Path], extra: str = "") -> str:
@@ -74,10 +85,22 @@ def _label(client: Any, tag: str) -> str | None:
         return None
 
 
+def _last_error(output: str) -> str:
+    """The line of a tool's output that says what went wrong (pip: ``ERROR: …``)."""
+    lines = [ln.strip() for ln in output.splitlines() if ln.strip()]
+    errors = [ln for ln in lines if ln.lower().startswith(("error", "e:"))]
+    return (errors or lines or ["no output"])[-1][:300]
+
+
 def _run(cmd: list[str], what: str) -> None:
-    r = subprocess.run(cmd, capture_output=True, text=True)
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True)
+    except OSError as e:
+        raise ImageBuildError(f"{what} failed: cannot run {cmd[0]}: {e.strerror}") from None
     if r.returncode != 0:
-        raise ImageBuildError(f"{what} failed ({' '.join(cmd[:3])} …):\n{r.stderr[-3000:]}")
+        out = r.stderr + r.stdout
+        raise ImageBuildError(f"{what} failed ({cmd[0].rsplit('/', 1)[-1]} exited "
+                              f"{r.returncode}): {_last_error(out)}", out[-3000:])
 
 
 def build_base(client: Any, say: Say = print, *, force: bool = False) -> str:
@@ -100,11 +123,18 @@ def build_base(client: Any, say: Say = print, *, force: bool = False) -> str:
     return BASE_IMAGE
 
 
-def _wheels(dest: Path) -> None:
-    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-          "-w", str(dest), str(REPO)], "building the eagc wheel")
+def client_wheels(dest: Path) -> list[Path]:
+    """The eagc wheel (``orchestrator._wheel``: no build backend needed) and its light
+    dependencies' wheels (downloaded by pip) in ``dest``; what the agent base installs."""
+    from orchestrator._wheel import WheelError, build_wheel
+
+    try:
+        build_wheel(REPO, dest)
+    except WheelError as e:
+        raise ImageBuildError(f"building the eagc wheel failed: {e}") from None
     _run([sys.executable, "-m", "pip", "download", "-q", "--only-binary=:all:", "-d", str(dest),
           "pydantic", "eclipse-zenoh", "numpy"], "downloading the client's wheels")
+    return sorted(dest.glob("*.whl"))
 
 
 def _docker_build(client: Any, context: Path, tag: str, build_hash: str, say: Say) -> str:
@@ -118,19 +148,22 @@ def _docker_build(client: Any, context: Path, tag: str, build_hash: str, say: Sa
         logs = "".join(
             str(chunk.get("stream", "")) for chunk in getattr(e, "build_log", []) or []
         )
-        raise ImageBuildError(f"docker build of {tag} failed: {e}\n{logs[-3000:]}") from e
+        raise ImageBuildError(f"docker build of {tag} failed: {_last_error(str(e))}",
+                              logs[-3000:]) from e
     return str(image.id)
 
 
-def build_agent_base(client: Any, say: Say = print, *, force: bool = False) -> str:
-    """``eagc/agent-base:latest``: the base plus the agent client, built with no network."""
+def build_agent_base(client: Any, say: Say = print, *, force: bool = False,
+                     tag: str = AGENT_BASE_IMAGE) -> str:
+    """``eagc/agent-base:latest`` (or ``tag``): the base plus the agent client, built with
+    no network."""
     build_base(client, say, force=False)
     want = _hash_paths([REPO / p for p in CLIENT_SOURCES], extra=str(_label(client, BASE_IMAGE)))
-    if not force and _label(client, AGENT_BASE_IMAGE) == want:
-        return AGENT_BASE_IMAGE
+    if not force and _label(client, tag) == want:
+        return tag
     with tempfile.TemporaryDirectory() as tmp:
         ctx = Path(tmp)
-        _wheels(ctx / "wheels")
+        client_wheels(ctx / "wheels")
         (ctx / "Dockerfile").write_text(
             f"FROM {BASE_IMAGE}\n"
             "COPY wheels /tmp/wheels\n"
@@ -139,8 +172,8 @@ def build_agent_base(client: Any, say: Say = print, *, force: bool = False) -> s
             "ENV HOME=/tmp PYTHONDONTWRITEBYTECODE=1\n"
             f"USER {CONTAINER.uid}:{CONTAINER.uid}\n"
         )
-        _docker_build(client, ctx, AGENT_BASE_IMAGE, want, say)
-    return AGENT_BASE_IMAGE
+        _docker_build(client, ctx, tag, want, say)
+    return tag
 
 
 def build_folder(client: Any, folder: Path, tag: str, say: Say = print, *,

@@ -10,7 +10,17 @@ quarantined episode has its final marked **pending**; one still missing episodes
 
 Failure reports show what a team may see: split and index, status, stage reached, limit
 hit, exit code, OOM, the message. Never a seed, a scenario parameter or an organizer path;
-a quarantined episode says only that it is held back for an infrastructure failure.
+a quarantined episode says only that it is held back for an infrastructure failure, and
+how often it was retried (as many times as the campaign's ``retries`` allows).
+
+``team_report`` is one team's own view: its row and every one of its episodes (verdict,
+score, stage reached, limit hit, what was wrong with its files, the last lines its agent
+printed), and nothing of any other team. It is neutral about the hidden scenario: no score
+components, weights or scorer notes (``orchestrator._report``).
+
+The text form fits ``$COLUMNS`` (80 by default) without cutting a name or a value
+(``orchestrator._boardtext``); the JSON form keeps ``rows[].team``, ``.episodes``,
+``.planned`` and ``.values`` (``final`` on a 0–100 scale).
 """
 
 from __future__ import annotations
@@ -24,8 +34,13 @@ from typing import Any
 from plugins import Column, TrackPlugin, load_track
 from schemas import CampaignSpec
 
-HELD_BACK = ("infrastructure failure (not the agent's fault), retried and held back until an "
-             "organizer decides")
+
+def held_back(retried: int, allowed: int) -> str:
+    """What a team reads about its quarantined episode: retried as the campaign allows."""
+    how = (f"retried {retried} time{'s' if retried != 1 else ''}" if retried
+           else "not retried")
+    return (f"infrastructure failure (not the agent's fault), {how} (the campaign allows "
+            f"{allowed}), held back until an organizer decides")
 
 
 @dataclass(frozen=True)
@@ -65,7 +80,7 @@ class Leaderboard:
     # ------------------------------------------------------------------ output
     def cell(self, row: Row, col: Column) -> str:
         v = row.values.get(col.key)
-        text = "—" if v is None else col.fmt.format(v)
+        text = "—" if v is None else cell_text(v, col.fmt)
         if col.key == "final" and row.state != "final":
             text += f" ({row.state})"
         return text
@@ -112,44 +127,60 @@ class Leaderboard:
                     f" | {'yes' if f.oom_killed else 'no'} | {msg} |")
         return "\n".join(lines) + "\n"
 
-    def to_rich(self) -> Any:
-        from rich.console import Group
-        from rich.table import Table
+    def to_text(self, limit: int | None = None) -> str:
+        """The table and the failed episodes as plain text within ``limit`` columns
+        (default: ``$COLUMNS``, else the terminal's width, else 80)."""
+        from orchestrator._boardtext import TextColumn, layout, width
 
-        table = Table(title=f"{self.campaign} · {self.track} · {self.phase}")
-        table.add_column("#", justify="right")
-        table.add_column("Team", style="bold")
-        for c in self.columns:
-            table.add_column(c.title, justify="right")
-        table.add_column("Episodes", justify="right")
-        for r in self.rows:
-            table.add_row(str(r.rank), r.team, *(self.cell(r, c) for c in self.columns),
-                          f"{r.episodes}/{r.planned}")
-        if not self.failures:
-            return table
-        fails = Table(title="failed episodes (what the team may see)", title_justify="left")
-        for name in ("Team", "Episode", "Status", "Stage reached", "Limit hit", "Exit",
-                     "OOM", "What happened"):
-            fails.add_column(name)
-        for f in self.failures:
-            fails.add_row(f.team, f"{f.split}/{f.index}", f.status, f.stage_reached or "—",
-                          f.limit_hit or "—", "—" if f.exit_code is None else str(f.exit_code),
-                          "yes" if f.oom_killed else "no", f.message)
-        return Group(table, fails)
+        limit = limit or width()
+        key = [TextColumn("#", tuple(str(r.rank) for r in self.rows)),
+               TextColumn("Team", tuple(r.team for r in self.rows), right=False)]
+        cols = [TextColumn(c.title, tuple(self.cell(r, c) for r in self.rows))
+                for c in self.columns]
+        cols.append(TextColumn("Episodes", tuple(f"{r.episodes}/{r.planned}"
+                                                 for r in self.rows)))
+        first = next(i for i, c in enumerate(self.columns) if c.key == "final")
+        lines = layout(f"{self.campaign} · {self.track} · {self.phase} (scores 0-100)", key,
+                       cols, first, limit)
+        if self.failures:
+            lines += ["", "failed episodes (what each team may see)"]
+            for f in self.failures:
+                lines += failure_lines(f, limit)
+        return "\n".join(lines) + "\n"
 
-    def render(self, fmt: str) -> str:
-        """``table`` (plain text of the rich table), ``csv``, ``json`` or ``md``."""
+    def render(self, fmt: str, limit: int | None = None) -> str:
+        """``table`` (plain text within ``limit`` columns), ``csv``, ``json`` or ``md``."""
         if fmt == "csv":
             return self.to_csv()
         if fmt == "json":
             return self.to_json() + "\n"
         if fmt == "md":
             return self.to_markdown()
-        from rich.console import Console
+        return self.to_text(limit)
 
-        console = Console(width=160, record=True, file=io.StringIO())
-        console.print(self.to_rich())
-        return console.export_text()
+
+def cell_text(v: float, fmt: str) -> str:
+    """``fmt`` of ``v``, except between 0 and 1 (a latency of 0.37 ms under ``{:.0f}``
+    would read 0): there two significant digits, ``0.37``."""
+    return f"{v:.2g}" if 0 < abs(v) < 1 else fmt.format(v)
+
+
+def failure_lines(f: FailureLine, limit: int, *, with_team: bool = True) -> list[str]:
+    """One failed episode in a few lines: who, which, how it ended, what happened."""
+    from orchestrator._boardtext import wrapped
+
+    head = f"{f.split}/{f.index}  {f.status}"
+    if with_team:
+        head = f"{f.team}  {head}"
+    facts = [f"stage reached: {f.stage_reached or 'none'}"]
+    if f.limit_hit:
+        facts.append(f"limit hit: {f.limit_hit}")
+    if f.exit_code is not None:
+        facts.append(f"exit code {f.exit_code}")
+    if f.oom_killed:
+        facts.append("OOM-killed")
+    return [*wrapped(head, limit), *wrapped(" · ".join(facts), limit, "    "),
+            *wrapped(f.message, limit, "    ")]
 
 
 # ---------------------------------------------------------------------------- building
@@ -210,7 +241,7 @@ def build_leaderboard(spec: CampaignSpec, store: Any) -> Leaderboard:
         for e in stored if (f := e.result.failure) is not None
     ] + [
         FailureLine(q.key.submission, q.key.split, q.key.index, "infra", "quarantined", None,
-                    None, None, False, HELD_BACK) for q in held
+                    None, None, False, held_back(q.retries, spec.retries)) for q in held
     ]
     failures.sort(key=lambda f: (f.team, f.split, f.index))
     return Leaderboard(spec.name, spec.track, spec.phase, columns, rows, failures)

@@ -17,13 +17,14 @@ from typing import Any
 
 from mcap.reader import make_reader
 
+from orchestrator._errors import OrchestratorError
 from plugins import Scenario, load_track
 from simhost._actions import check_action
 
 _TOPICS = ["/eagc/scenario", "/eagc/request", "/eagc/event", "/eagc/state_hash", "/eagc/state"]
 
 
-class ReplayError(RuntimeError):
+class ReplayError(OrchestratorError, RuntimeError):
     """Raised when a log cannot be replayed (missing scenario, unknown track, …)."""
 
 

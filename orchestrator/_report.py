@@ -1,8 +1,16 @@
-"""One-screen score cards and failure reports (rich)."""
+"""One-screen score cards and failure reports (rich).
+
+Two audiences. The organizer's card (``eagc run-episode``) shows everything the episode
+recorded: score components with this episode's weights and the scorer's notes. The team's
+card (``eagc test``, and the per-team report of a campaign) is neutral about the hidden
+scenario: no components, weights or notes (a redistributed weight or a note such as "no
+exception in this episode" says what the scenario held), only what the agent did, how it
+ended and what was wrong with its files.
+"""
 
 from __future__ import annotations
 
-from rich.console import Console, Group
+from rich.console import Console, Group, RenderableType
 from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
@@ -14,13 +22,36 @@ def _mib(n: int | None) -> str:
     return "—" if n is None else f"{n / 2**20:.0f} MiB"
 
 
-def render(result: EpisodeResult) -> Panel:
-    """The score card, with the failure report when the episode failed."""
+def number(v: float) -> str:
+    """A number as read: weights exactly (``0.125``), small values with two significant
+    digits (``0.37``), others with one decimal at most."""
+    if v == 0 or abs(v) >= 100:
+        return f"{v:.0f}" if float(v).is_integer() else f"{v:.1f}"
+    if abs(v) < 1:
+        return f"{v:.2g}"
+    return f"{v:.1f}"
+
+
+def weight(w: float) -> str:
+    """A weight exactly as the track set it (``0.125``, ``0.25``), never rounded to 2 places."""
+    return f"{w:.6g}"
+
+
+def latency(ms: float) -> str:
+    """Milliseconds: ``0.37`` below 1 ms, one decimal above."""
+    return f"{ms:.2g}" if ms < 1 else f"{ms:.1f}"
+
+
+def render(result: EpisodeResult, *, team: bool = False) -> Panel:
+    """The score card, with the failure report when the episode failed.
+
+    ``team``: the team's neutral view (module docstring).
+    """
     card = result.score
     ok = result.failure is None
     title = (f"[bold]{result.track}[/] · split {result.split} · episode {result.episode} · "
              f"{result.runtime}")
-    parts: list = []
+    parts: list[RenderableType] = []
 
     summary = Table.grid(padding=(0, 2))
     summary.add_row("status", Text(result.status.value, style="green" if ok else "bold red"))
@@ -28,7 +59,7 @@ def render(result: EpisodeResult) -> Panel:
     summary.add_row("stages", " → ".join(result.stages_reached) or "none")
     s = result.stats
     lat = "—" if s.latency_ms_median is None else (
-        f"{s.latency_ms_median:.1f} ms median, {s.latency_ms_p99:.1f} ms p99")
+        f"{latency(s.latency_ms_median)} ms median, {latency(s.latency_ms_p99 or 0.0)} ms p99")
     summary.add_row("steps", f"{s.steps}  (invalid actions {s.invalid_actions}, "
                              f"protocol errors {sum(s.protocol_errors.values())})")
     summary.add_row("agent latency", lat)
@@ -36,29 +67,31 @@ def render(result: EpisodeResult) -> Panel:
     summary.add_row("wall time", f"{s.wall_s:.1f} s")
     parts.append(summary)
 
-    comp = Table(title="score components", title_justify="left", expand=False)
-    comp.add_column("component")
-    comp.add_column("weight", justify="right")
-    comp.add_column("value", justify="right")
-    comp.add_column("weighted", justify="right")
-    for name, value in card.components.items():
-        w = card.weights.get(name)
-        comp.add_row(name, "—" if w is None else f"{w:.2f}", f"{value:.3f}",
-                     "—" if w is None else f"{w * value:.3f}")
-    parts.append(comp)
+    if not team:
+        comp = Table(title="score components", title_justify="left", expand=False)
+        comp.add_column("component")
+        comp.add_column("weight", justify="right")
+        comp.add_column("value", justify="right")
+        comp.add_column("weighted", justify="right")
+        for name, value in card.components.items():
+            w = card.weights.get(name)
+            comp.add_row(name, "—" if w is None else weight(w), f"{value:.3f}",
+                         "—" if w is None else f"{w * value:.3f}")
+        parts.append(comp)
 
     if result.files:
         files = Table(title="files in /output", title_justify="left")
-        files.add_column("file")
+        files.add_column("file", no_wrap=True)
         files.add_column("size", justify="right")
         files.add_column("check")
         for f in result.files:
-            check = (Text("ok", style="green") if f.ok
-                     else Text(f.reason.splitlines()[0][:90], style="red"))
+            check = Text("ok", style="green") if f.ok else Text(file_problem(f.reason),
+                                                                style="red")
             files.add_row(f.name, "—" if f.size is None else str(f.size), check)
         parts.append(files)
-    for note in card.notes:
-        parts.append(Text(f"note: {note}", style="dim"))
+    if not team:
+        for note in card.notes:
+            parts.append(Text(f"note: {note}", style="dim"))
 
     if result.failure is not None:
         f = result.failure
@@ -74,10 +107,25 @@ def render(result: EpisodeResult) -> Panel:
             tail = "\n".join(f.log_tail.rstrip().splitlines()[-12:])
             parts.append(Panel(Text(tail), title="last lines the agent printed",
                                border_style="dim"))
-    if result.episode_dir:
-        parts.append(Text(f"organizer files: {result.episode_dir}/host", style="dim"))
     return Panel(Group(*parts), title=title, border_style="green" if ok else "red")
 
 
-def print_result(result: EpisodeResult, console: Console | None = None) -> None:
-    (console or Console()).print(render(result))
+def file_problem(reason: str) -> str:
+    """What was wrong with a rejected file, in one line: the first problem and how many
+    more (``SchemaError``'s first line), without repeating the file's name."""
+    first = reason.strip().splitlines()[0] if reason.strip() else "rejected"
+    name, sep, rest = first.partition(": ")
+    return rest if sep and "." in name and " " not in name else first
+
+
+def where_line(result: EpisodeResult) -> str:
+    """Where an episode's files are, in one line."""
+    if not result.episode_dir:
+        return "nothing was kept on disk"
+    return (f"episode folder: {result.episode_dir} (host/result.json, host/agent.log, "
+            "host/episode.mcap, host/output/)")
+
+
+def print_result(result: EpisodeResult, console: Console | None = None, *,
+                 team: bool = False) -> None:
+    (console or Console()).print(render(result, team=team))

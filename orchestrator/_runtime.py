@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from orchestrator._errors import OrchestratorError
 from schemas import CONTAINER, ContainerExit, Limits
 
 LABEL_PREFIX = "eagc"
@@ -22,8 +23,8 @@ def sample_interval(elapsed_s: float) -> float:
     return 0.05 if elapsed_s < 2.0 else 0.2
 
 
-class RuntimeErrorBase(RuntimeError):
-    """Root of the runtime errors."""
+class RuntimeErrorBase(OrchestratorError, RuntimeError):
+    """Raised when a container runtime fails (root of AgentStartError and InfraError)."""
 
 
 class AgentStartError(RuntimeErrorBase):

@@ -28,12 +28,13 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from orchestrator._errors import OrchestratorError
 from schemas import CampaignSpec
 
 PUBLIC_PREFIX = b"eagc-public-local-seeds/"
 
 
-class SeedError(ValueError):
+class SeedError(OrchestratorError, ValueError):
     """Raised when the seed secret cannot be read, or a revealed list does not match."""
 
 

@@ -24,6 +24,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from orchestrator._errors import OrchestratorError
 from schemas import CampaignSpec, EpisodeResult
 
 SCHEMA_VERSION = 1
@@ -50,7 +51,7 @@ CREATE TABLE IF NOT EXISTS quarantine (
 """
 
 
-class StoreError(RuntimeError):
+class StoreError(OrchestratorError, RuntimeError):
     """Raised when the store does not match the campaign (changed seeds, newer schema)."""
 
 

@@ -1,34 +1,61 @@
-"""The ``eagc`` command line."""
+"""The ``eagc`` command line.
+
+Every command ends in one line when something is wrong, never a traceback, with the exit
+codes of ``orchestrator._cli_common`` (shown by ``eagc --help`` and in the README).
+"""
 
 from __future__ import annotations
 
 import logging
 import os
-import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
 
 from orchestrator._campaign_cli import campaign_app, leaderboard_cmd, status_cmd
+from orchestrator._cli_common import (
+    EXIT_CODES_HELP,
+    SEED_RANGE,
+    ExitCode,
+    OneLineErrors,
+    check_split,
+    check_track,
+    episode_folder,
+    episode_log,
+    limits_of,
+)
+from orchestrator._errors import UsageError
 
 app = typer.Typer(
+    cls=OneLineErrors,
     help="eagc: the evaluation system of the EAGC 2026 World Model Challenge.",
+    epilog=EXIT_CODES_HELP,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
 )
-images_app = typer.Typer(help="Build the base, agent-base and example images offline.")
+images_app = typer.Typer(cls=OneLineErrors,
+                         help="Build the base, agent-base and example images offline.")
 app.add_typer(images_app, name="images")
 app.add_typer(campaign_app, name="campaign")
 # Top-level aliases of the commands an organizer types most.
 app.command("leaderboard", help="Alias of `eagc campaign leaderboard`.")(leaderboard_cmd)
 app.command("status", help="Alias of `eagc campaign status`.")(status_cmd)
-# Piped or logged output (CI, `| tee`) gets room for the leaderboards' columns; a terminal
-# keeps its own width.
-console = Console(width=None if sys.stdout.isatty() else 160)
+# Width: $COLUMNS when set, else the terminal's, else 80 (rich decides at each print).
+console = Console()
 #: Progress and warnings: stderr, so that --json output stays clean.
-notes = Console(stderr=True, width=None if sys.stderr.isatty() else 160)
+notes = Console(stderr=True)
+
+#: Where ``eagc preview`` writes when ``--out`` is not given.
+PREVIEWS = Path("runs") / "previews"
+RUN_EPISODE_CODES = ("Exit codes: 0 the episode completed; 3 infrastructure failure (not "
+                     "the agent's fault: run it again); 4 the agent failed (crash, timeout, "
+                     "OOM, protocol, bad files, no start); 1 an error, on one line; 2 usage "
+                     "error (unknown track or split, bad seed).")
+
+SeedOpt = Annotated[int, typer.Option(help="Scenario seed (public: for local tests).",
+                                      **SEED_RANGE)]
 
 
 def local_command(image: str) -> str:
@@ -56,40 +83,53 @@ def _runtime(name: str):  # noqa: ANN202
         from orchestrator._docker import DockerRuntime
 
         return DockerRuntime()
+    if name != "local":
+        raise UsageError(f"no runtime named {name!r}: docker, or local (development only)")
     from orchestrator._local import WARNING, LocalProcessRuntime
 
     notes.print(f"[bold yellow]{WARNING}[/]")
     return LocalProcessRuntime(quiet=True)
 
 
+def _episode_exit(result: Any) -> ExitCode:
+    """0 completed, 3 infrastructure failure, 4 agent failure."""
+    kind = result.status.failure_kind
+    return ExitCode.OK if kind is None else ExitCode.INFRA if kind == "infra" else ExitCode.AGENT
+
+
 def _run_one(track: str, image: str, runtime: str, seed: int, split: str, time_scale: float,
              max_steps: int | None, memory_mb: int, cpus: float, runs_dir: Path,
              as_json: bool) -> int:
-    from orchestrator._report import print_result
+    from orchestrator._report import print_result, where_line
     from orchestrator._worker import EpisodeSpec, run_episode
-    from schemas import Limits
 
-    limits = Limits(time_scale=time_scale, max_steps_per_stage=max_steps, memory_mb=memory_mb,
-                    cpus=cpus)
+    plugin = check_track(track)
+    check_split(plugin, split)
+    limits = limits_of(time_scale=time_scale, max_steps_per_stage=max_steps,
+                       memory_mb=memory_mb, cpus=cpus)
     spec = EpisodeSpec(track=track, image=image, seed=seed, split=split, limits=limits,
                        runs_dir=runs_dir)
+    agent_runtime = _runtime(runtime)
     with notes.status(f"running one {track} episode ({runtime})…"):
-        result = run_episode(spec, _runtime(runtime))
+        result = run_episode(spec, agent_runtime)
     if as_json:
         print(result.model_dump_json(indent=2))
     else:
         print_result(result, console)
-    return 0 if result.status.failure_kind != "infra" else 2
+        console.print(where_line(result), highlight=False)
+    return _episode_exit(result)
 
 
-@app.command("run-episode")
+@app.command("run-episode", epilog=RUN_EPISODE_CODES)
 def run_episode_cmd(
     track: Annotated[str, typer.Argument(help="Track name, e.g. sanity.")],
     image: Annotated[str, typer.Option(help="Agent image (docker) or command (local).")],
     runtime: Annotated[str, typer.Option(help="docker, or local (development only).")] = "docker",
-    seed: Annotated[int, typer.Option(help="Scenario seed (public: for local tests).")] = 0,
-    split: Annotated[str, typer.Option()] = "standard",
-    time_scale: Annotated[float, typer.Option(help="Multiplies every stage budget.")] = 1.0,
+    seed: SeedOpt = 0,
+    split: Annotated[str, typer.Option(help="A split of the track (standard, challenge, …).")
+                     ] = "standard",
+    time_scale: Annotated[float, typer.Option(help="Multiplies every stage budget (0-1].")
+                          ] = 1.0,
     max_steps: Annotated[int | None, typer.Option(help="Step cap per stage.")] = None,
     memory_mb: Annotated[int, typer.Option()] = 2048,
     cpus: Annotated[float, typer.Option()] = 1.0,
@@ -97,8 +137,6 @@ def run_episode_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as JSON.")] = False,
 ) -> None:
     """Run one episode of a track against an agent and print its score card."""
-    if runtime not in ("docker", "local"):
-        raise typer.BadParameter("runtime must be docker or local")
     raise typer.Exit(_run_one(track, image, runtime, seed, split, time_scale, max_steps,
                               memory_mb, cpus, runs_dir, as_json))
 
@@ -106,26 +144,37 @@ def run_episode_cmd(
 @app.command()
 def demo(
     runtime: Annotated[str, typer.Option(help="auto, docker or local.")] = "auto",
-    episodes: Annotated[int, typer.Option(min=1, help="Episodes per split and agent.")] = 2,
-    workers: Annotated[int | None, typer.Option(help="Containers at a time.")] = None,
-    runs_dir: Annotated[Path, typer.Option()] = Path("runs"),
+    track: Annotated[list[str] | None, typer.Option(
+        help="Only this track (repeat for several). Default: every installed track.")] = None,
+    workers: Annotated[int | None, typer.Option(min=1, help="Containers at a time.")] = None,
+    output: Annotated[Path | None, typer.Option(
+        help="Results folder (default: each demo file's own, runs/demo).")] = None,
 ) -> None:
-    """A small local campaign on an embedded Ray: the example agents of every installed
-    track, in containers when a Docker engine answers (images built offline first),
-    otherwise as local processes; ends with each track's leaderboard."""
-    from orchestrator._campaign_cli import local_campaign
+    """Run the demo campaigns: every baseline of every track, fixed seeds.
 
-    raise typer.Exit(local_campaign(runtime=runtime, episodes=episodes, workers=workers,
-                                    output=runs_dir, console=notes))
+    The campaigns are examples/campaigns/demo_<track>.yaml, run on an embedded Ray, in
+    containers when a Docker engine answers (images built offline first), otherwise as
+    local processes. Each ends with its leaderboard and where its results are. Run again:
+    the stored results are shown, nothing is rerun.
+    """
+    from orchestrator._demo import run_demo
+
+    if runtime not in ("auto", "docker", "local"):
+        raise UsageError(f"no runtime named {runtime!r}: auto, docker or local")
+    raise typer.Exit(run_demo(runtime=runtime, tracks=track or None, workers=workers,
+                              output=output, console=notes))
 
 
-@app.command("test")
+@app.command("test", epilog="Exit codes: 0 the container meets the contract; 4 it does not; "
+                            "3 infrastructure failure; 1 an error; 2 usage error.")
 def test_agent(
     image: Annotated[str, typer.Argument(help="Your image (a command with --runtime local).")],
     track: Annotated[str, typer.Option(help="Track to test against.")] = "sanity",
     runtime: Annotated[str, typer.Option(help="docker (the sandbox) or local.")] = "docker",
-    seed: Annotated[int, typer.Option(help="A public seed.")] = 1,
-    time_scale: Annotated[float, typer.Option(help="Multiplies every stage budget.")] = 0.1,
+    seed: Annotated[int, typer.Option(help="A public seed.", **SEED_RANGE)] = 1,
+    split: Annotated[str, typer.Option(help="A split of the track.")] = "standard",
+    time_scale: Annotated[float, typer.Option(help="Multiplies every stage budget (0-1].")
+                          ] = 0.1,
     memory_mb: Annotated[int, typer.Option()] = 2048,
     runs_dir: Annotated[Path, typer.Option()] = Path("runs"),
 ) -> None:
@@ -133,15 +182,17 @@ def test_agent(
     from rich.table import Table
 
     from orchestrator._agentcheck import contract_checks
-    from orchestrator._report import print_result
+    from orchestrator._report import print_result, where_line
     from orchestrator._worker import EpisodeSpec, run_episode
-    from schemas import Limits
 
-    spec = EpisodeSpec(track=track, image=image, seed=seed, split="standard", runs_dir=runs_dir,
-                       limits=Limits(time_scale=time_scale, memory_mb=memory_mb))
-    with console.status(f"one {track} episode with {image} ({runtime})…"):
-        result = run_episode(spec, _runtime(runtime))
-    print_result(result, console)
+    plugin = check_track(track)
+    check_split(plugin, split)
+    spec = EpisodeSpec(track=track, image=image, seed=seed, split=split, runs_dir=runs_dir,
+                       limits=limits_of(time_scale=time_scale, memory_mb=memory_mb))
+    agent_runtime = _runtime(runtime)
+    with notes.status(f"one {track} episode with {image} ({runtime})…"):
+        result = run_episode(spec, agent_runtime)
+    print_result(result, console, team=True)
     table = Table(title="container contract", title_justify="left")
     table.add_column("check")
     table.add_column("")
@@ -150,7 +201,10 @@ def test_agent(
     for c in checks:
         table.add_row(c.name, "[green]pass[/]" if c.ok else "[bold red]FAIL[/]", c.detail)
     console.print(table)
-    raise typer.Exit(0 if all(c.ok for c in checks) else 1)
+    console.print(where_line(result), highlight=False)
+    if result.status.failure_kind == "infra":
+        raise typer.Exit(ExitCode.INFRA)
+    raise typer.Exit(ExitCode.OK if all(c.ok for c in checks) else ExitCode.AGENT)
 
 
 @app.command()
@@ -161,8 +215,8 @@ def replay(
     """Re-simulate an episode from its MCAP log and check it matches the live run."""
     from orchestrator._replay import replay as do_replay
 
-    path = episode / "host" / "episode.mcap" if episode.is_dir() else episode
-    with console.status(f"replaying {path}…"):
+    path = episode_log(episode)
+    with notes.status(f"replaying {path}…"):
         report = do_replay(path)
     console.print(f"{report.track} episode {report.episode}: {report.steps} steps replayed, "
                   f"{report.hashes_checked} state hashes and {report.states_checked} full "
@@ -171,37 +225,55 @@ def replay(
         console.print(f"[bold red]mismatch[/]: {m}")
     if verify and not report.ok:
         console.print("[bold red]the replay does not match the log[/]")
-        raise typer.Exit(1)
+        raise typer.Exit(ExitCode.ERROR)
     console.print("[green]the replay matches the log bit for bit[/]")
 
 
 @app.command()
 def preview(
-    seed: Annotated[int, typer.Option(help="Scenario seed (a public one).")] = 0,
-    split: Annotated[str, typer.Option()] = "standard",
+    seed: Annotated[int, typer.Option(help="Scenario seed (a public one).", **SEED_RANGE)] = 0,
+    split: Annotated[str, typer.Option(help="A split of the track.")] = "standard",
     track: Annotated[str, typer.Option(help="The track.")] = "track1",
-    out: Annotated[Path, typer.Option(help="Folder for the PNG.")] = Path("."),
+    out: Annotated[Path, typer.Option(help="Folder for the PNG.")] = PREVIEWS,
 ) -> None:
-    """A scenario preview as PNG (Track 1: the top-down map with the task, and a camera
-    frame)."""
-    from plugins import load_track
+    """A scenario preview as PNG, in runs/previews/ unless --out says where.
 
-    path = load_track(track).preview(seed=seed, split=split, out=out)
-    console.print(f"[green]✓[/] {path}")
+    Track 1: the top-down map with the task, beside the robot's first camera frame.
+    """
+    from plugins import PluginError
+
+    plugin = check_track(track)
+    check_split(plugin, split)
+    try:
+        path = plugin.preview(seed=seed, split=split, out=out)
+    except PluginError as e:  # the track draws none
+        raise UsageError(str(e)) from None
+    console.print(f"[green]✓[/] {path}", highlight=False)
 
 
 @app.command()
 def picture(
     episode: Annotated[Path, typer.Argument(help="An episode folder (runs/<episode>).")],
+    out: Annotated[Path | None, typer.Option(
+        help="Where to write the PNG (default: the episode's host/ folder).")] = None,
 ) -> None:
-    """Draw an episode: Track 1's trajectory over the map, Track 2's attempt beside the
-    demonstration."""
-    from plugins import load_track
+    """Draw an episode as PNG (in its host/ folder unless --out says where).
+
+    Track 1: the trajectory over the map; Track 2: the attempt beside the demonstration.
+    """
+    from plugins import PluginError
     from schemas import EpisodeResult, load_json
 
-    result = load_json(episode / "host" / "result.json", EpisodeResult)
-    path = load_track(result.track).picture(episode)
-    console.print(f"[green]✓[/] {path}")
+    folder = episode_folder(episode)
+    result = load_json(folder / "host" / "result.json", EpisodeResult)
+    plugin = check_track(result.track)
+    try:
+        path = plugin.picture(folder, out)
+    except PluginError as e:  # the track draws none
+        raise UsageError(str(e)) from None
+    except (ValueError, KeyError) as e:  # not one of this track's episodes, a damaged log
+        raise UsageError(f"{folder}: cannot draw this episode: {e}") from None
+    console.print(f"[green]✓[/] {path}", highlight=False)
 
 
 @images_app.command("build")
@@ -237,7 +309,8 @@ def tracks() -> None:
             console.print(f"[bold red]{name}[/]: cannot be loaded: {e}")
             continue
         stages = ", ".join(f"{s.name} {s.budget_s:g}s" for s in plugin.stages())
-        console.print(f"[bold]{name}[/]: {plugin.title}\n  stages: {stages}")
+        console.print(f"[bold]{name}[/]: {plugin.title}\n  stages: {stages}\n"
+                      f"  splits: {', '.join(plugin.split_names())}")
 
 
 def main() -> None:

@@ -26,8 +26,8 @@ from schemas import (
     FileCheck,
     SchemaError,
     ScoreCard,
+    parse_episode_log,
     parse_json,
-    parse_jsonl,
 )
 from schemas._result import EpisodeStatus
 from simhost._episode import StageSpec, TrackEpisode
@@ -45,7 +45,8 @@ class Scenario:
 
 @dataclass(frozen=True)
 class FileRule:
-    """A file the agent writes to /output: its model (``None``: JSON lines of log records)."""
+    """A file the agent writes to /output: its model (``None``: JSON lines of log records,
+    checked by ``schemas.parse_episode_log``)."""
 
     model: type[BaseModel] | None
     required: bool = True
@@ -120,6 +121,12 @@ class TrackPlugin(ABC):
     files: ClassVar[Mapping[str, FileRule]]
     #: Split name → (weight in the final score, scenario parameters).
     splits: ClassVar[Mapping[str, tuple[float, Mapping[str, Any]]]]
+    #: Public splits a scenario can also be made for (e.g. ``dev``), outside the final score.
+    extra_splits: ClassVar[tuple[str, ...]] = ()
+
+    def split_names(self) -> tuple[str, ...]:
+        """Every split ``make_scenario`` accepts: ``splits`` then ``extra_splits``."""
+        return (*self.splits, *(s for s in self.extra_splits if s not in self.splits))
 
     @abstractmethod
     def stages(self) -> list[StageSpec]:
@@ -177,13 +184,13 @@ class TrackPlugin(ABC):
                 continue
             try:
                 if rule.jsonl:
-                    parsed[fname] = parse_jsonl(data, source=fname)
+                    parsed[fname] = parse_episode_log(data, source=fname)
                 else:
                     assert rule.model is not None
                     parsed[fname] = parse_json(data, rule.model, source=fname)
                 checks.append(FileCheck(name=fname, ok=True, size=len(data)))
             except SchemaError as e:
-                checks.append(FileCheck(name=fname, ok=False, size=len(data), reason=str(e)))
+                checks.append(FileCheck(name=fname, ok=False, size=len(data), reason=e.detail))
         return parsed, checks
 
     def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:

@@ -8,12 +8,13 @@ from functools import cache
 from importlib.metadata import EntryPoint, entry_points
 
 from plugins._base import TrackPlugin
+from schemas import EagcError
 
 GROUP = "eagc.tracks"
 
 
-class PluginError(RuntimeError):
-    """Raised when a track cannot be found or does not follow the plugin interface."""
+class PluginError(EagcError, RuntimeError):
+    """Raised when a track cannot be found, loaded or used (the root of plugins' errors)."""
 
 
 def _entry_points() -> dict[str, EntryPoint]:

@@ -378,9 +378,8 @@ class TrackConformance:
             files = {name: data for name in rules}
             files["unexpected.bin"] = data  # not collected, and no reason to raise
             _, checks = self._checks(files)
-            # An empty file is a valid JSON-lines log (no records); nothing else here is valid.
-            accepted = [c.name for c in checks if c.ok and c.name in rules
-                        and not (what == "empty" and rules[c.name].jsonl)]
+            # None is valid: an empty log holds no record (schemas.parse_episode_log).
+            accepted = [c.name for c in checks if c.ok and c.name in rules]
             assert not accepted, f"{what}: {accepted} accepted"
 
     def test_verify_files_with_valid_examples(self):

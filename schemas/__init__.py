@@ -7,7 +7,7 @@ regenerates them; a test fails on drift).
 
 from schemas._campaign import CampaignSpec, Limits, Split, Submission
 from schemas._contract import CONTAINER, ContainerContract, unix_endpoint
-from schemas._errors import SchemaError
+from schemas._errors import EagcError, SchemaError
 from schemas._files import (
     TASK_MODEL_VERSION,
     WORLD_MODEL_VERSION,
@@ -25,7 +25,7 @@ from schemas._files import (
     TaskModel,
     WorldModel,
 )
-from schemas._io import load_json, parse_json, parse_jsonl
+from schemas._io import load_json, parse_episode_log, parse_json, parse_jsonl
 from schemas._protocol import (
     PROTOCOL_VERSION,
     ActionResult,
@@ -69,6 +69,7 @@ __all__ = [
     "ContainerExit",
     "ContainerState",
     "DoorState",
+    "EagcError",
     "EndReason",
     "EndStage",
     "EpisodeResult",
@@ -103,6 +104,7 @@ __all__ = [
     "TensorMeta",
     "WorldModel",
     "load_json",
+    "parse_episode_log",
     "parse_json",
     "parse_jsonl",
     "unix_endpoint",

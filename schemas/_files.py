@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 WORLD_MODEL_VERSION = "eagc-world-model/v1"
 TASK_MODEL_VERSION = "eagc-task-model/v1"
@@ -169,7 +169,12 @@ ExceptionType = Literal[
 
 
 class LogRecord(_File):
-    """One line of ``episode_log.jsonl``."""
+    """One line of ``episode_log.jsonl``.
+
+    A valid log (``schemas.parse_episode_log``) has at least one record, one JSON object
+    per line (blank lines are ignored), records in time order (``step`` never decreases),
+    and an ``exception_type`` on every ``exception_detected`` record.
+    """
 
     step: int = Field(ge=0, description="Agent step count when the record was written.")
     stage: str | None = None
@@ -178,3 +183,9 @@ class LogRecord(_File):
         default=None, description="Required for exception_detected."
     )
     data: dict[str, Any] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _exception_named(self) -> LogRecord:
+        if self.event == "exception_detected" and self.exception_type is None:
+            raise ValueError("an exception_detected record names its exception_type")
+        return self

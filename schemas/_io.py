@@ -48,3 +48,27 @@ def parse_jsonl(
     if problems:
         raise SchemaError(source, problems)
     return records
+
+
+def parse_episode_log(data: bytes | str, *, source: str = "episode_log.jsonl") -> list[LogRecord]:
+    """Parse ``episode_log.jsonl`` and check what makes a log valid (SchemaError if not).
+
+    A valid log has at least one record (an empty file says nothing: a failed check), one
+    ``LogRecord`` per line (blank lines are ignored), records in time order (``step``
+    never decreases from one record to the next) and an ``exception_type`` on every
+    ``exception_detected`` record.
+    """
+    records = parse_jsonl(data, LogRecord, source=source)
+    if not records:
+        raise SchemaError(source, ["empty: a log holds at least one record (e.g. a 'stage' "
+                                   "record as each stage begins)"])
+    text = data.decode("utf-8", errors="replace") if isinstance(data, bytes) else data
+    numbers = [no for no, line in enumerate(text.splitlines(), start=1) if line.strip()]
+    problems = [
+        f"line {no}: step: {rec.step} comes after step {prev.step}: records are in time order"
+        for no, prev, rec in zip(numbers[1:], records, records[1:], strict=False)
+        if rec.step < prev.step
+    ]
+    if problems:
+        raise SchemaError(source, problems)
+    return records

@@ -30,6 +30,7 @@ _EXPORTS = {
     "RemoteEnv": "simhost.agent",
     "TimeStep": "simhost.agent",
     "HostError": "simhost.agent",
+    "SimHostError": "simhost._errors",
     "OutputFiles": "simhost._outputs",
     "OutputFileError": "simhost._outputs",
     "Pose": "simhost._episode",
@@ -61,6 +62,7 @@ __all__ = [
     "Pose",
     "RemoteEnv",
     "SimHost",
+    "SimHostError",
     "StageSpec",
     "StepOutcome",
     "TimeStep",
@@ -74,6 +76,7 @@ __all__ = [
 if TYPE_CHECKING:
     from simhost._actions import ActionError, check_action
     from simhost._episode import Observation, Pose, StageSpec, StepOutcome, TrackEpisode
+    from simhost._errors import SimHostError
     from simhost._host import EpisodeRecorder, HostConfig, HostOutcome, SimHost
     from simhost._mcap import McapRecorder
     from simhost._outputs import OutputFileError, OutputFiles

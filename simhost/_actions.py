@@ -14,9 +14,10 @@ from typing import Any
 import numpy as np
 
 from schemas._protocol import FieldSpec
+from simhost._errors import SimHostError
 
 
-class ActionError(ValueError):
+class ActionError(SimHostError, ValueError):
     """Raised when an action does not match the action spec."""
 
 

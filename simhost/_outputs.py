@@ -9,7 +9,7 @@ are written, so that an agent learns of a bad file at once instead of from its s
     files = OutputFiles()                      # $EAGC_OUTPUT, /output in a container
     files.write(WorldModel(...))               # -> world_model.json
     files.log(step=12, stage="execution", event="exception_detected",
-              exception_type="door_locked")    # -> one line of episode_log.jsonl
+              exception_type="door_lock")      # -> one line of episode_log.jsonl
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from pydantic import BaseModel, ValidationError
 
 from schemas._contract import CONTAINER
 from schemas._files import LogRecord, TaskModel, WorldModel
+from simhost._errors import SimHostError
 
 __all__ = ["LOG_FILE", "MODEL_FILES", "OutputFiles", "OutputFileError"]
 
@@ -35,7 +36,7 @@ MODEL_FILES: dict[type[BaseModel], str] = {
 LOG_FILE = "episode_log.jsonl"
 
 
-class OutputFileError(ValueError):
+class OutputFileError(SimHostError, ValueError):
     """Raised when a file would not pass the host's schema check (the message names the
     field and the problem), or its name is not a plain file name."""
 

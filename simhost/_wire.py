@@ -30,6 +30,7 @@ import pydantic_core
 from pydantic import BaseModel, TypeAdapter, ValidationError
 
 from schemas._protocol import Reply, Request
+from simhost._errors import SimHostError
 
 MAGIC = b"EGC1"
 _FRAME = struct.Struct("<4sI")
@@ -47,7 +48,7 @@ _NAMES = {dt: name for name, dt in _DTYPES.items()}
 _ZEROS = [b"\0" * n for n in range(_ALIGN)]
 
 
-class WireError(ValueError):
+class WireError(SimHostError, ValueError):
     """Raised when a buffer is not a valid v1 message; ``code`` is the protocol error code."""
 
     def __init__(self, code: str, message: str) -> None:

@@ -51,6 +51,7 @@ from schemas._protocol import (
     StageInfo,
 )
 from simhost import _transport
+from simhost._errors import SimHostError
 from simhost._outputs import OutputFileError, OutputFiles
 from simhost._wire import decode_observation, decode_reply, encode
 
@@ -73,7 +74,7 @@ _HELLO_RESEND_S = 0.5  # then hello is resent at this interval until a reply com
 _END_REASONS = {r.value: r for r in EndReason}
 
 
-class HostError(RuntimeError):
+class HostError(SimHostError, RuntimeError):
     """Raised when the host answers a request with an error reply."""
 
     def __init__(self, code: str, message: str, fatal: bool) -> None:

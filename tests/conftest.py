@@ -1,5 +1,8 @@
 """Shared fixtures. Markers (``docker``, ``slow``) are registered in pyproject.toml.
 
+Every test session has its own CPU lock folder (``own_lock_dir``): nothing in the suite
+depends on the machine being empty.
+
 ``sim_host`` starts a real ``SimHost`` serving a real sanity episode (MuJoCo) on a unix
 socket, with ``serve()`` on a thread; ``host_episode`` is one such host with the defaults.
 """
@@ -11,6 +14,7 @@ import secrets
 import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -21,6 +25,22 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 # Plain asserts in the shipped conformance suite get pytest's detailed failure messages.
 pytest.register_assert_rewrite("plugins.conformance")
+
+
+@pytest.fixture(scope="session", autouse=True)
+def own_lock_dir(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """The CPU placement locks of this test session, apart from any other eagc run on the
+    machine (``EAGC_LOCK_DIR`` defaults to /tmp, which a running campaign may hold: the
+    tests must pass while one runs). Set before any episode, Ray worker or driver process
+    starts, so that they all inherit it."""
+    folder = tmp_path_factory.mktemp("cpu-locks")
+    before = os.environ.get("EAGC_LOCK_DIR")
+    os.environ["EAGC_LOCK_DIR"] = str(folder)
+    yield folder
+    if before is None:
+        os.environ.pop("EAGC_LOCK_DIR", None)
+    else:
+        os.environ["EAGC_LOCK_DIR"] = before
 
 
 @dataclass

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from simhost._errors import SimHostError
 
-class HouseError(Exception):
-    """Root of every error raised by ``simhost.track1``."""
+
+class HouseError(SimHostError):
+    """Raised when a Track 1 house cannot be built, changed or restored (root of its errors)."""
 
 
 class LayoutError(HouseError, ValueError):

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from simhost._errors import SimHostError
 
-class Track2Error(Exception):
-    """Root of every error raised by ``simhost.track2``."""
+
+class Track2Error(SimHostError):
+    """Raised when a Track 2 bench cannot be built, changed or restored (root of its errors)."""
 
 
 class InstanceParamsError(Track2Error, ValueError):

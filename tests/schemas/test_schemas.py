@@ -48,7 +48,10 @@ def test_load_json_names_the_file_the_field_and_the_problem(tmp_path: Path):
     err = e.value
     assert err.source == str(path)
     text = str(err)
-    assert str(path) in text and "2 problem(s)" in text
+    # The first line says it all: the file, its first problem, how many more.
+    first = text.splitlines()[0]
+    assert first.startswith(f"{path}: ") and first.endswith("(and 1 more problem)")
+    assert first == err.summary and any(p in first for p in err.problems)
     assert any(p.startswith("rooms.1.type:") and "string" in p for p in err.problems)
     assert any(p.startswith("doors.0.state:") and "'open'" in p for p in err.problems)
 

@@ -1,0 +1,198 @@
+"""What every ``eagc`` command shares: exit codes, one-line errors, checked arguments.
+
+Exit codes (``eagc --help`` and the README show the same table)::
+
+    0    success (run-episode: the episode completed)
+    1    an error, printed on one line (a file that does not validate, no Docker engine,
+         an image that does not build, …), or a check that does not hold (replay --verify,
+         campaign reveal)
+    2    usage error: an unknown command or option, or a value eagc cannot use (a track or
+         split that does not exist, a negative seed, a folder that is not an episode)
+    3    infrastructure failure, not the agent's fault (run-episode; campaign run: episodes
+         quarantined after their retries)
+    4    the agent failed (run-episode: crash, timeout, OOM, protocol, bad files, no start;
+         test: the container does not meet the contract)
+    130  cancelled (Ctrl-C)
+
+Any ``schemas.EagcError`` a command lets through (every package's errors derive from it)
+is printed as ``error: <first line of the message>`` on stderr, never as a traceback. An
+unexpected exception is a bug: one line too, with the traceback written to a file that the
+line names (``EAGC_DEBUG=1`` shows it instead).
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+import sys
+import tempfile
+import traceback
+from enum import IntEnum
+from pathlib import Path
+from typing import Any
+
+import typer
+from typer.core import TyperGroup
+
+from orchestrator._errors import UsageError
+from schemas import EagcError, SchemaError
+
+
+class ExitCode(IntEnum):
+    """The exit codes of every ``eagc`` command (module docstring)."""
+
+    OK = 0
+    ERROR = 1
+    USAGE = 2
+    INFRA = 3
+    AGENT = 4
+    CANCELLED = 130
+
+
+EXIT_CODES_HELP = (
+    "Exit codes: 0 success (run-episode: the episode completed); 1 an error, on one line, "
+    "or a check that does not hold; 2 usage error (unknown track or split, bad value); "
+    "3 infrastructure failure (campaign run: episodes quarantined); 4 the agent failed "
+    "(test: the container does not meet the contract); 130 cancelled."
+)
+
+
+def error_line(e: BaseException) -> str:
+    """The one line a user sees for an eagc error: the first line of its message."""
+    if isinstance(e, SchemaError):
+        return e.summary
+    text = str(e).strip()
+    return text.splitlines()[0] if text else type(e).__name__
+
+
+def _bug_line(e: BaseException) -> str:
+    """One line for an unexpected exception; its traceback goes to a file."""
+    fd, path = tempfile.mkstemp(prefix="eagc-traceback-", suffix=".txt")
+    with os.fdopen(fd, "w") as f:
+        f.write("".join(traceback.format_exception(e)))
+    return (f"unexpected {type(e).__name__}: {error_line(e)} (a bug in eagc: the traceback "
+            f"is in {path}; EAGC_DEBUG=1 shows it)")
+
+
+def say_error(message: str) -> None:
+    """Prints ``error: message`` on stderr as one line (never wrapped by eagc)."""
+    print(f"error: {message}", file=sys.stderr, flush=True)
+
+
+#: Exits commands ask for, and the usage errors of the click that typer runs on.
+_EXITS = (typer.Exit, typer.Abort)
+_CLICK_ERRORS = tuple(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+
+
+class OneLineErrors(TyperGroup):
+    """A command group whose commands end in one line, never a traceback (module doc)."""
+
+    def invoke(self, ctx: Any) -> Any:
+        try:
+            return super().invoke(ctx)
+        except _EXITS:
+            raise
+        except _CLICK_ERRORS as e:  # a bad option or value, an unknown command
+            if type(e).__name__ == "NoArgsIsHelpError":
+                raise  # `eagc campaign` alone: its help
+            where = getattr(e, "ctx", None)
+            hint = f" (see `{where.command_path} --help`)" if where is not None else ""
+            say_error(e.format_message() + hint)
+            raise typer.Exit(e.exit_code) from None
+        except KeyboardInterrupt:
+            say_error("cancelled")
+            raise typer.Exit(ExitCode.CANCELLED) from None
+        except UsageError as e:
+            say_error(error_line(e))
+            raise typer.Exit(ExitCode.USAGE) from None
+        except EagcError as e:
+            say_error(error_line(e))
+            raise typer.Exit(ExitCode.ERROR) from None
+        except OSError as e:  # a folder that cannot be written, a disk that is full, …
+            say_error(f"{e.strerror or e}" + (f": {e.filename}" if e.filename else ""))
+            raise typer.Exit(ExitCode.ERROR) from None
+        except Exception as e:  # noqa: BLE001 - a bug: still one line, the traceback kept
+            if os.environ.get("EAGC_DEBUG"):
+                raise
+            say_error(_bug_line(e))
+            raise typer.Exit(ExitCode.ERROR) from None
+
+
+# ---------------------------------------------------------------------------- arguments
+def _suggest(name: str, choices: list[str]) -> str:
+    hint = difflib.get_close_matches(name, choices, n=1, cutoff=0.5)
+    return f" Did you mean {hint[0]!r}?" if hint else ""
+
+
+def check_track(name: str) -> Any:
+    """The installed track ``name`` (a ``TrackPlugin``); UsageError with a suggestion if
+    there is none of that name."""
+    from plugins import available_tracks, load_track
+
+    names = available_tracks()
+    if name not in names:
+        raise UsageError(f"no track named {name!r}.{_suggest(name, names)} Installed "
+                         f"tracks: {', '.join(names) or 'none'}")
+    return load_track(name)
+
+
+def check_split(plugin: Any, split: str) -> str:
+    """``split`` if ``plugin`` has it (``TrackPlugin.split_names()``); UsageError with a
+    suggestion otherwise."""
+    names = list(plugin.split_names())
+    if split not in names:
+        raise UsageError(f"track {plugin.name!r} has no split {split!r}."
+                         f"{_suggest(split, names)} Its splits: {', '.join(names)}")
+    return split
+
+
+#: What ``--seed`` accepts: seeds are non-negative (campaigns derive 63-bit ones).
+SEED_RANGE = {"min": 0}
+
+
+def episode_folder(path: Path) -> Path:
+    """An episode folder (``<runs>/<episode>`` with ``host/result.json``); UsageError naming
+    what is missing otherwise."""
+    if not path.exists():
+        raise UsageError(f"{path} does not exist")
+    if not path.is_dir():
+        raise UsageError(f"{path} is not a folder: give an episode folder (runs/<episode>)")
+    if not (path / "host" / "result.json").is_file():
+        raise UsageError(f"{path} is not an episode folder: it has no host/result.json "
+                         "(episode folders are runs/<episode>, as run-episode prints)")
+    return path
+
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def episode_log(path: Path) -> Path:
+    """The MCAP log of an episode folder, or ``path`` itself if it is one; UsageError
+    naming what is wrong otherwise."""
+    if path.is_dir():
+        log = path / "host" / "episode.mcap"
+        if not log.is_file():
+            raise UsageError(f"{path} is not an episode folder: it has no host/episode.mcap")
+        path = log
+    elif not path.exists():
+        raise UsageError(f"{path} does not exist")
+    with path.open("rb") as f:
+        if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+            raise UsageError(f"{path} is not an MCAP episode log")
+    return path
+
+
+def limits_of(**values: Any) -> Any:
+    """``schemas.Limits`` from command-line values; UsageError naming the option otherwise."""
+    from pydantic import ValidationError
+
+    from schemas import Limits
+    from schemas._errors import describe
+
+    try:
+        return Limits(**values)
+    except ValidationError as e:
+        options = {"max_steps_per_stage": "max-steps"}
+        first = describe(e)[0]
+        key, _, what = first.partition(": ")
+        raise UsageError(f"--{options.get(key, key.replace('_', '-'))}: {what}") from None

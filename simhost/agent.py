@@ -337,14 +337,14 @@ class RemoteEnv:
                 if fast is not None:  # the common case: the trusted host's reply, unvalidated
                     doc = fast[0]
                     got = doc.get("id")
-                    if got != rid:
+                    if got is not None and got != rid:
                         self._drop(got, doc["seq"])
                         continue
                     self._seq = doc["seq"]
                     self._tensors = fast[1]
                     return doc
                 reply, rtensors = decode_reply(payload)
-                if reply.id != rid:
+                if reply.id is not None and reply.id != rid:
                     self._drop(reply.id, reply.seq)
                     continue
                 break
@@ -361,8 +361,8 @@ class RemoteEnv:
 
     def _drop(self, rid: int | None, seq: int) -> None:
         """A reply to another request: the late reply to one that timed out (its seq is
-        the host's latest), or a second reply to a resent hello (nothing to take). The host
-        echoes every id it can read, and this client sends one with every request."""
+        the host's latest), or a second reply to a resent hello (nothing to take). A reply
+        without an id comes from a host older than request ids: it is taken in order."""
         if rid in self._late:
             self._late.remove(rid)
             self._seq = seq
@@ -382,7 +382,7 @@ class RemoteEnv:
                 else:
                     reply = decode_reply(payload)[0]
                     rid, seq = reply.id, reply.seq
-                self._drop(rid, seq)
+                self._drop(self._late[0] if rid is None else rid, seq)
         finally:
             self._deadline = None
 

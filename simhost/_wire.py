@@ -134,14 +134,13 @@ def _split(buf: bytes, max_bytes: int | None) -> tuple[bytes, memoryview]:
 
 
 def _tensors(metas: Any, block: memoryview) -> dict[str, np.ndarray]:
-    """Views of the tensors after checking the block's exact layout.
+    """Views of the tensors, after checking the block's exact layout.
 
-    ``metas`` are TensorMeta models or their plain dicts. Every check runs before any array
-    is made: a buffer that breaks the layout anywhere yields no tensor at all.
+    ``metas`` are TensorMeta models or their plain dicts. A buffer that breaks the layout
+    anywhere raises, so its tensors (views, nothing copied) are never used.
     """
     size = len(block)
-    layout: list[tuple[str, np.dtype, tuple[int, ...], int, int]] = []
-    names: set[str] = set()
+    out: dict[str, np.ndarray] = {}
     expected = 0
     for m in metas:
         if type(m) is not dict:
@@ -152,9 +151,8 @@ def _tensors(metas: Any, block: memoryview) -> dict[str, np.ndarray]:
         dtype = _DTYPES.get(m["dtype"])
         if dtype is None:
             raise WireError("malformed", f"tensor {name!r}: dtype {m['dtype']!r} not in v1")
-        if name in names:
+        if name in out:
             raise WireError("malformed", f"tensor {name!r} appears twice")
-        names.add(name)
         count = math.prod(shape)
         if nbytes != count * dtype.itemsize:
             raise WireError("malformed", f"tensor {name!r}: nbytes is {nbytes}, shape "
@@ -166,7 +164,7 @@ def _tensors(metas: Any, block: memoryview) -> dict[str, np.ndarray]:
                             f"offset {expected} (tensors follow each other in header order, "
                             "each at the next multiple of 8)")
         end = offset + nbytes
-        expected = end + _pad(end)
+        expected = end + (-end) % _ALIGN
         if expected > size:
             raise WireError("malformed", f"message ends {expected - size} byte(s) early: "
                             f"tensor {name!r} and its padding need bytes {offset}..{expected} "
@@ -174,17 +172,14 @@ def _tensors(metas: Any, block: memoryview) -> dict[str, np.ndarray]:
         if expected != end and block[end:expected] != _ZEROS[expected - end]:
             raise WireError("malformed", f"tensor {name!r}: the padding after it is not zero "
                             "bytes")
-        layout.append((name, dtype, shape, offset, count))
-    if expected != size:
-        raise WireError("malformed", f"{size - expected} trailing byte(s) after the last "
-                        f"tensor (the tensor block must be exactly {expected} bytes)")
-    out: dict[str, np.ndarray] = {}
-    for name, dtype, shape, offset, count in layout:
         try:  # e.g. shape (0, 2**70): no bytes, but no such array either
             arr = np.frombuffer(block, dtype=dtype, count=count, offset=offset)
             out[name] = arr.reshape(shape) if len(shape) != 1 else arr
         except (ValueError, OverflowError) as e:
             raise WireError("malformed", f"tensor {name!r}: shape {list(shape)}: {e}") from None
+    if expected != size:
+        raise WireError("malformed", f"{size - expected} trailing byte(s) after the last "
+                        f"tensor (the tensor block must be exactly {expected} bytes)")
     return out
 
 

@@ -30,6 +30,7 @@ _EXPORTS = {
     "RemoteEnv": "simhost.agent",
     "TimeStep": "simhost.agent",
     "HostError": "simhost.agent",
+    "HostLost": "simhost.agent",
     "SimHostError": "simhost._errors",
     "OutputFiles": "simhost._outputs",
     "OutputFileError": "simhost._outputs",
@@ -37,6 +38,7 @@ _EXPORTS = {
     "SimHost": "simhost._host",
     "HostConfig": "simhost._host",
     "HostOutcome": "simhost._host",
+    "HostProgress": "simhost._host",
     "EpisodeRecorder": "simhost._host",
     "TrackEpisode": "simhost._episode",
     "StageSpec": "simhost._episode",
@@ -54,7 +56,9 @@ __all__ = [
     "EpisodeRecorder",
     "HostConfig",
     "HostError",
+    "HostLost",
     "HostOutcome",
+    "HostProgress",
     "McapRecorder",
     "Observation",
     "OutputFileError",
@@ -77,11 +81,11 @@ if TYPE_CHECKING:
     from simhost._actions import ActionError, check_action
     from simhost._episode import Observation, Pose, StageSpec, StepOutcome, TrackEpisode
     from simhost._errors import SimHostError
-    from simhost._host import EpisodeRecorder, HostConfig, HostOutcome, SimHost
+    from simhost._host import EpisodeRecorder, HostConfig, HostOutcome, HostProgress, SimHost
     from simhost._mcap import McapRecorder
     from simhost._outputs import OutputFileError, OutputFiles
     from simhost._png import encode_png, write_png
-    from simhost.agent import HostError, RemoteEnv, TimeStep
+    from simhost.agent import HostError, HostLost, RemoteEnv, TimeStep
 
 
 def __getattr__(name: str) -> Any:

@@ -67,6 +67,9 @@ class ScoringInput:
     steps: int
     invalid_actions: int
     protocol_errors: int
+    #: Wall-clock budget each stage was granted (s, after the campaign's time scale);
+    #: empty when the caller does not say.
+    stage_budgets_s: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

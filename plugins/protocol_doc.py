@@ -247,26 +247,48 @@ def stages_table(stages: list[StageSpec]) -> str:
 
 
 def sample_specs(
-    plugin: TrackPlugin,
+    plugin: TrackPlugin, split: str
 ) -> tuple[list[tuple[proto.FieldSpec, ...]], list[tuple[proto.FieldSpec, ...]]]:
-    """The observation and action specs of ``SAMPLES`` scenarios of every split."""
+    """The observation and action specs of ``SAMPLES`` scenarios of ``split``."""
     observations, actions = [], []
-    for split in plugin.splits:
-        for i in range(SAMPLES):
-            scenario = plugin.make_scenario(seed=i, split=split, params={}, index=i)
-            episode = plugin.make_episode(scenario)
-            try:
-                observations.append(tuple(episode.observation_spec))
-                actions.append(tuple(episode.action_spec))
-            finally:
-                episode.close()
+    for i in range(SAMPLES):
+        scenario = plugin.make_scenario(seed=i, split=split, params={}, index=i)
+        episode = plugin.make_episode(scenario)
+        try:
+            observations.append(tuple(episode.observation_spec))
+            actions.append(tuple(episode.action_spec))
+        finally:
+            episode.close()
     return observations, actions
+
+
+def _by_split(tables: dict[str, str], what: str) -> list[str]:
+    """One table per group of splits whose tables are the same."""
+    groups: dict[str, list[str]] = {}
+    for split, table in tables.items():
+        groups.setdefault(table, []).append(split)
+    out = []
+    for table, splits in groups.items():
+        names = ", ".join(f"`{s}`" for s in splits)
+        out += [f"{what} on split{'s' if len(splits) > 1 else ''} {names} (sampled over "
+                f"{SAMPLES} scenarios of each):", "", table, ""]
+    return out
+
+
+def _split_names(plugin: TrackPlugin) -> tuple[str, ...]:
+    names = getattr(plugin, "split_names", None)
+    return tuple(names()) if callable(names) else tuple(plugin.splits)
 
 
 def track_section(name: str) -> str:
     plugin = load_track(name)
-    observations, actions = sample_specs(plugin)
-    splits = ", ".join(f"`{s}`" for s in plugin.splits)
+    observations: dict[str, str] = {}
+    actions: dict[str, str] = {}
+    for split in _split_names(plugin):
+        obs, act = sample_specs(plugin, split)
+        observations[split] = spec_table(obs, observation=True)
+        actions[split] = spec_table(act, observation=False)
+    extra = [s for s in _split_names(plugin) if s not in plugin.splits]
     files = ["| file | schema | required |", "|---|---|---|"]
     for fname, rule in plugin.files.items():
         if rule.jsonl:
@@ -283,14 +305,13 @@ def track_section(name: str) -> str:
         "",
         stages_table(plugin.stages()),
         "",
-        f"Observation (sampled over {SAMPLES} scenarios of each split: {splits}):",
-        "",
-        spec_table(observations, observation=True),
-        "",
+        *([f"Public extra split{'s' if len(extra) > 1 else ''}, outside the final score: "
+           + ", ".join(f"`{s}`" for s in extra) + ".", ""] if extra else []),
+        *_by_split(observations, "Observation"),
         "Action (fields may be left out; the track decides what a missing one means):",
         "",
-        spec_table(actions, observation=False),
-        "",
+        *([next(iter(actions.values())), ""] if len(set(actions.values())) == 1
+          else _by_split(actions, "Action")),
         "Files collected from `/output` (checked against their schema):",
         "",
         "\n".join(files),

@@ -19,6 +19,7 @@ from schemas import _protocol as proto
 FIX = "regenerate it with `python -m plugins.protocol_doc` (never edit those sections by hand)"
 
 
+@pytest.mark.slow
 def test_protocol_page_matches_the_code():
     assert not protocol_doc.stale(), f"{protocol_doc.DOC} is stale: {FIX}"
 

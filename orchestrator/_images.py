@@ -53,6 +53,15 @@ def example_agents() -> dict[str, Path]:
 Say = Callable[[str], None]
 
 
+def _parent(folder: Path) -> str:
+    """The image a folder's Dockerfile builds ``FROM`` (its first FROM line)."""
+    for line in (folder / "Dockerfile").read_text().splitlines():
+        words = line.split()
+        if len(words) >= 2 and words[0].upper() == "FROM":
+            return words[1]
+    return AGENT_BASE_IMAGE
+
+
 class ImageBuildError(OrchestratorError, RuntimeError):
     """Raised when an image cannot be built; the message says which step and why.
 
@@ -178,8 +187,10 @@ def build_agent_base(client: Any, say: Say = print, *, force: bool = False,
 
 def build_folder(client: Any, folder: Path, tag: str, say: Say = print, *,
                  force: bool = False) -> str:
-    """Builds an agent folder (a Dockerfile ``FROM eagc/agent-base``) with no network."""
-    want = _hash_paths([folder], extra=str(_label(client, AGENT_BASE_IMAGE)))
+    """Builds an agent folder (a Dockerfile ``FROM eagc/agent-base`` or ``FROM`` another
+    example's image) with no network. Its hash covers the parent's, so a rebuilt parent
+    rebuilds it."""
+    want = _hash_paths([folder], extra=str(_label(client, _parent(folder))))
     if not force and _label(client, tag) == want:
         return tag
     _docker_build(client, folder, tag, want, say)

@@ -54,6 +54,7 @@ from plugins import Scenario, ScoringInput, TrackPlugin, load_track
 from schemas import (
     CONTAINER,
     ContainerExit,
+    EndReason,
     EpisodeResult,
     EpisodeStats,
     EpisodeStatus,
@@ -191,24 +192,24 @@ def _classify(
     if exit_.oom_killed:
         return (EpisodeStatus.AGENT_OOM, f"memory {limits.memory_mb} MiB",
                 f"the container was killed for exceeding its memory limit during {stage!r}")
-    if reason == "protocol_violation":
+    if reason == EndReason.PROTOCOL_VIOLATION:
         return (EpisodeStatus.AGENT_PROTOCOL, f"{limits.max_protocol_errors} protocol errors",
                 "too many malformed or invalid requests")
-    if reason in ("stopped", "agent_lost"):
+    if reason in (EndReason.STOPPED, EndReason.AGENT_LOST):
         how = "exited" if exit_.exit_code is not None else "disconnected"
         return (EpisodeStatus.AGENT_CRASH, None,
                 f"the agent {how} (exit code {exit_.exit_code}) before the episode ended, "
                 f"during {stage!r}")
-    if reason == "startup_timeout":
+    if reason == EndReason.STARTUP_TIMEOUT:
         if outcome.agent_seen:
             msg = "the agent said hello but did not reset within the startup budget"
         else:
             msg = "the agent never connected within the startup budget"
         return EpisodeStatus.AGENT_TIMEOUT, f"startup {limits.startup_s:g} s", msg
-    if reason == "budget":
+    if reason == EndReason.BUDGET:
         return (EpisodeStatus.AGENT_TIMEOUT, f"stage budget of {stage!r}",
                 f"the last stage {stage!r} ran out of time before the agent finished")
-    if reason == "steps":
+    if reason == EndReason.STEPS:
         return (EpisodeStatus.AGENT_TIMEOUT, f"step cap of {stage!r}",
                 f"the last stage {stage!r} ran out of steps before the agent finished")
     bad = [c for c in checks if not c.ok]
@@ -320,11 +321,11 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
             if hung is not None:
                 infra = hung
             handle.checkpoint()  # while the agent most likely still runs
-            if outcome.end_reason not in ("stopped",) and not exited.is_set():
+            if outcome.end_reason != EndReason.STOPPED and not exited.is_set():
                 # Let the agent write its last files and leave on its own.
                 handle.wait(spec.exit_grace_s)
             exit_ = handle.stop()
-            if outcome.end_reason == "stopped" and exit_.exit_code is not None:
+            if outcome.end_reason == EndReason.STOPPED and exit_.exit_code is not None:
                 exit_ = exit_.model_copy(update={"exited_early": True})
             if outcome.internal_error and infra is None:
                 infra = outcome.internal_error

@@ -21,6 +21,7 @@ from typing import Any, ClassVar
 from pydantic import BaseModel
 
 from schemas import (
+    EndReason,
     EpisodeResult,
     FileCheck,
     SchemaError,
@@ -58,7 +59,7 @@ class ScoringInput:
 
     scenario: Scenario
     status: EpisodeStatus
-    end_reason: str
+    end_reason: EndReason
     stages_reached: tuple[str, ...]
     outcome: Mapping[str, Any]
     files: Mapping[str, Any]
@@ -66,6 +67,9 @@ class ScoringInput:
     steps: int
     invalid_actions: int
     protocol_errors: int
+    #: Wall-clock budget each stage was granted (s, after the campaign's time scale);
+    #: empty when the caller does not say.
+    stage_budgets_s: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

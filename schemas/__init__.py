@@ -7,6 +7,7 @@ regenerates them; a test fails on drift).
 
 from schemas._campaign import CampaignSpec, Limits, Split, Submission
 from schemas._contract import CONTAINER, ContainerContract, unix_endpoint
+from schemas._demo import DEMO_VERSION, Annotation, ArraySpec, DemoManifest, FrameSpec, KeyStage
 from schemas._errors import EagcError, SchemaError
 from schemas._files import (
     TASK_MODEL_VERSION,
@@ -30,6 +31,7 @@ from schemas._protocol import (
     PROTOCOL_VERSION,
     ActionResult,
     Answer,
+    EndReason,
     EndStage,
     ErrorReply,
     FieldSpec,
@@ -56,19 +58,24 @@ from schemas._result import (
 
 __all__ = [
     "CONTAINER",
+    "DEMO_VERSION",
     "PROTOCOL_VERSION",
     "TASK_MODEL_VERSION",
     "WORLD_MODEL_VERSION",
     "ActionResult",
     "Affordance",
+    "Annotation",
     "Answer",
+    "ArraySpec",
     "CampaignSpec",
     "Connection",
     "ContainerContract",
     "ContainerExit",
     "ContainerState",
+    "DemoManifest",
     "DoorState",
     "EagcError",
+    "EndReason",
     "EndStage",
     "EpisodeResult",
     "EpisodeStats",
@@ -77,9 +84,11 @@ __all__ = [
     "FailureReport",
     "FieldSpec",
     "FileCheck",
+    "FrameSpec",
     "Hello",
     "HelloReply",
     "HostMessage",
+    "KeyStage",
     "Limits",
     "LogRecord",
     "NamedItem",

@@ -126,11 +126,14 @@ class SuccessCriterion(_File):
 class TaskModel(_File):
     """``task_model.json`` (Track 2): the task inferred from the demonstration.
 
-    Names follow the bench's vocabulary (``simhost.track2.task_truth``): e.g. insertion has
-    stages ``reach grasp transport align insert release``, variables ``peg_pose``,
-    constraints ``clearance``, preconditions ``{"stage": "insert", "requires":
-    ["peg_grasped", "peg_aligned"]}`` and success ``insertion_depth >= 0.02``. It is compared
-    with the truth of the hidden instance being executed.
+    Names follow the bench's public vocabulary (``simhost.track2.task_truth``,
+    ``plugins/track2/README.md``): e.g. insertion has stages ``reach grasp transport align
+    insert release``, variables ``peg_pose``, constraints ``clearance``, preconditions
+    ``{"stage": "insert", "requires": ["peg_grasped", "peg_aligned"]}`` and success
+    ``insertion_depth >= 0.02``. It is compared with the truth of the hidden instance being
+    executed, whose goals are stated relative to the attempt's start as the demonstration
+    defines them (rotation: ``knob_turn within [1.15, 1.25]``, a turn, not an angle); the
+    values (constraints, success criteria) weigh more than the names.
     """
 
     version: Literal["eagc-task-model/v1"] = TASK_MODEL_VERSION

@@ -8,6 +8,7 @@ from pathlib import Path
 from pydantic import BaseModel, TypeAdapter
 
 from schemas._campaign import CampaignSpec
+from schemas._demo import DemoManifest
 from schemas._files import LogRecord, TaskModel, WorldModel
 from schemas._protocol import Reply, Request
 from schemas._result import EpisodeResult, ScoreCard
@@ -19,6 +20,7 @@ TARGETS: dict[str, object] = {
     "protocol_reply": Reply,
     "world_model": WorldModel,
     "task_model": TaskModel,
+    "demo_manifest": DemoManifest,
     "episode_log_record": LogRecord,
     "campaign": CampaignSpec,
     "episode_result": EpisodeResult,

@@ -1,7 +1,8 @@
 """Waypoint-replay baseline for Track 2 (AWDA-style): the demonstration's hand path, replayed
 in the frame of the object it was relative to.
 
-Uses only ``simhost.agent.RemoteEnv``, numpy and the standard library.
+Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), ``schemas`` (the packet's
+``DemoManifest``), numpy and the standard library.
 
 Parsing cuts the demonstration at its grasp and release annotations. Before a grasp the hand
 moves relative to the part it grasps (the part nearest the hand at the grasp); while holding,
@@ -9,15 +10,15 @@ relative to where the part goes (of the parts that stay put, the one nearest the
 release); after the last release, relative to that same place. Each segment's waypoints are
 the demonstration's control targets (rebuilt from its actions) expressed in that part's pose
 at the segment's start; during execution they are mapped through the same part's pose
-observed when the segment starts, and followed with the demonstration's grip commands.
-Nothing else adapts: no goal is read, no symmetry is known. A failed attempt is replayed
-again more slowly (each waypoint held 2, then 3 steps). The task model says only what the
-packet's manifest says: the family and its stages.
+observed when the segment starts (the mean of its fresh measurements so far: poses are
+noisy), and followed with the demonstration's grip commands. Nothing else adapts: no goal
+is read, no symmetry is known. A failed attempt is replayed again more slowly (each waypoint
+held 2, then 3 steps). The task model says only what the packet's manifest says: the family
+and its stages.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import sys
@@ -26,9 +27,9 @@ from typing import Any
 
 import numpy as np
 
-from simhost.agent import RemoteEnv
+from schemas import DemoManifest, TaskModel
+from simhost.agent import OutputFiles, RemoteEnv
 
-OUT = Path(os.environ.get("EAGC_OUTPUT", "/output"))
 INPUT = Path(os.environ.get("EAGC_INPUT", "/input"))
 DPOS, DYAW, WMAX = 0.015, 0.15, 0.09
 SCALE = np.array([DPOS, DPOS, DPOS, DYAW])
@@ -52,7 +53,8 @@ def pose(row: np.ndarray) -> np.ndarray:
 
 
 def read_packet(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    manifest = json.loads((folder / "manifest.json").read_text())
+    manifest = DemoManifest.model_validate_json((folder / "manifest.json").read_text())
+    manifest = manifest.model_dump()
     with np.load(folder / "trajectory.npz", allow_pickle=False) as npz:
         arrays = {k: npz[k] for k in npz.files}
     return manifest, arrays
@@ -111,8 +113,12 @@ class Replay:
 
     def plan(self, obs: dict[str, Any], stretch: int) -> Any:
         target = np.asarray(obs["proprio"][:4], dtype=float)
+        seen: dict[int, list[np.ndarray]] = {}
         for first, end, ref in self.segments:
-            src, live = pose(self.parts0[first, ref]), pose(np.asarray(obs["parts"])[ref])
+            src = pose(self.parts0[first, ref])
+            rows = np.asarray(obs["parts"], dtype=float)
+            seen.setdefault(ref, []).append(pose(rows[ref]))
+            live = np.mean(seen[ref][-10:], axis=0)
             dyaw = wrap(live[3] - src[3])
             c, s = math.cos(dyaw), math.sin(dyaw)
             for k in range(first, end):
@@ -128,6 +134,9 @@ class Replay:
                         a = np.append(step / SCALE, self.grips[k])
                         target = np.clip(np.clip(target + step, hand - LEAD, hand + LEAD), LO, HI)
                         obs = yield a
+                        row = np.asarray(obs["parts"], dtype=float)[ref]
+                        if row[9] <= 0.2:  # a fresh measurement of the reference part
+                            seen[ref].append(pose(row))
                         if np.all(np.abs(wp - target) < 1e-4):
                             break
         for _ in range(10):  # as the demonstration ends: let go and back off upwards
@@ -135,16 +144,14 @@ class Replay:
 
 
 def main() -> int:
-    OUT.mkdir(parents=True, exist_ok=True)
-    log = (OUT / "episode_log.jsonl").open("a")
+    files = OutputFiles()
     steps = 0
 
     def record(event: str, stage: str, **data: Any) -> None:
-        log.write(json.dumps({"step": steps, "stage": stage, "event": event, "data": data}) + "\n")
-        log.flush()
+        files.log(step=steps, stage=stage, event=event, data=data)
 
     with RemoteEnv() as env:
-        env.hello(agent="eagc-track2-waypoint/1")
+        env.hello(agent="eagc-track2-waypoint/2")
         ts = env.reset()
         replay: Replay | None = None
         attempt, plan = 0, None
@@ -156,10 +163,8 @@ def main() -> int:
                     manifest, arrays = read_packet(folder)
                     replay = Replay(manifest, arrays)
                     record("plan", ts.stage, segments=replay.segments)
-                    doc = {"version": "eagc-task-model/v1", "step": steps,
-                           "family": manifest["family"], "stages": manifest["stage_names"]}
-                    (OUT / ".task_model.json.tmp").write_text(json.dumps(doc))
-                    (OUT / ".task_model.json.tmp").replace(OUT / "task_model.json")
+                    files.write(TaskModel(step=steps, family=manifest["family"],
+                                          stages=manifest["stage_names"]))
                 ts = env.end_stage()
                 continue
             assert replay is not None
@@ -177,11 +182,12 @@ def main() -> int:
             if action is None:  # the replay is through and the task is not done
                 ts = env.step({"end_attempt": 1})
             else:
-                ts = env.step({"motion": np.asarray(action, dtype=np.float32).tolist()})
+                ts = env.step({"motion": np.asarray(action, dtype=np.float32)})
             for m in ts.messages:
                 if m.type == "attempt_result":
                     record("attempt", ts.stage, **m.data)
         record("note", ts.stage, end=ts.end_reason)
+    files.close()
     return 0
 
 

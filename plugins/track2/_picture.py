@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from plugins.track2._episode import DEMO_FOLDER, EXECUTION
+from plugins.track2._scenario import Track2Scenario
 
 
 def _read_log(mcap: Path) -> tuple[dict[str, Any], dict[int, list[list[float]]], int | None]:
@@ -62,7 +63,7 @@ def attempt_png(
       FileNotFoundError: no MCAP log in the folder.
       ValueError: not a Track 2 episode, or the attempt has no recorded step.
     """
-    from simhost.track2 import InstanceParams, render_attempt_vs_demo, write_demo_packet
+    from simhost.track2 import render_attempt_vs_demo, write_demo_packet
 
     root = Path(episode_dir)
     mcap = root / "host" / "episode.mcap"
@@ -79,12 +80,77 @@ def attempt_png(
     out = Path(path) if path is not None else root / "host" / f"attempt_{k}.png"
     demo = root / "input" / DEMO_FOLDER
     attempt_xyz = np.asarray(paths[k])
+    hidden = scenario.get("params") or {}
+    title = (f"TRACK2 SEED {scenario.get('seed')} {str(scenario.get('split')).upper()} "
+             f"{str(hidden.get('family', '')).upper().replace('_', ' ')} ATTEMPT {k} OF "
+             f"{hidden.get('max_attempts', 3)} {'SUCCEEDED' if k == won else 'FAILED'}")
     if (demo / "manifest.json").is_file():
-        render_attempt_vs_demo(demo, attempt_xyz, path=out)
+        render_attempt_vs_demo(demo, attempt_xyz, path=out, title=title)
         return out
-    params = scenario["params"]
+    hidden = Track2Scenario.model_validate(scenario["params"])
     with tempfile.TemporaryDirectory() as tmp:
-        write_demo_packet(Path(tmp) / DEMO_FOLDER, InstanceParams.model_validate(params["source"]),
-                          seed=int(params["demo_seed"]), frames=bool(params.get("demo_frames")))
-        render_attempt_vs_demo(Path(tmp) / DEMO_FOLDER, attempt_xyz, path=out)
+        write_demo_packet(Path(tmp) / DEMO_FOLDER, hidden.source, seed=hidden.demo_seed,
+                          config=hidden.bench, frames=hidden.demo_frames)
+        render_attempt_vs_demo(Path(tmp) / DEMO_FOLDER, attempt_xyz, path=out, title=title)
     return out
+
+
+def preview_png(scenario: Any, out: Path) -> Path:
+    """The demonstrated source beside the hidden instance of a (public) seed: a top view of
+    their parts (blue: source, orange: instance; 5 cm scale bar) over the overview camera's
+    picture of each, titled with track, seed, split and family. Returns the PNG's path."""
+    from simhost.track2 import BenchEnv
+    from simhost.track2._picture import ATTEMPT_RGB, DEMO_RGB, INK, PAPER, _resize
+    from simhost.track2._raster import Canvas
+
+    hidden = Track2Scenario.model_validate(scenario.params)
+    shots, rows = [], []
+    for params in (hidden.source, hidden.instance):
+        env = BenchEnv(params, config=hidden.bench, render_mode="rgb_array",
+                       image_size=(240, 320))
+        env.reset(seed=hidden.demo_seed)
+        shots.append(env.render())
+        rows.append((env.task.part_names, env.task.parts()))
+        env.close()
+    panel, margin, head = 320, 12, 58
+    width = 2 * panel + 3 * margin
+    c = Canvas(head + panel + 2 * margin + 240 + margin, width, PAPER)
+    c.text(6, margin, f"TRACK2 PREVIEW SEED {scenario.seed} {scenario.split.upper()} "
+           f"{hidden.family.upper().replace('_', ' ')}", INK)
+    c.rect(26, margin, 36, margin + 10, DEMO_RGB)
+    c.text(26, margin + 16, "DEMONSTRATED SOURCE", INK)
+    c.rect(26, margin + 190, 36, margin + 200, ATTEMPT_RGB)
+    c.text(26, margin + 206, "HIDDEN INSTANCE", INK)
+    y0, x0 = head, margin
+    c.rect(y0, x0, y0 + panel, x0 + panel, (255, 255, 255))
+    c.text(y0 + 4, x0 + 4, "TOP X-Y", (120, 120, 120))
+    span = 0.5  # m across the panel: the table's working area
+
+    def px(x: float, y: float) -> tuple[float, float]:
+        return y0 + (0.5 - y / span) * (panel - 1), x0 + (0.5 + (x - 0.05) / span) * (panel - 1)
+
+    for (names, parts), colour in zip(rows, (DEMO_RGB, ATTEMPT_RGB), strict=True):
+        for name, row in zip(names, parts, strict=True):
+            if row[0] > 0.5:
+                yy, xx = px(float(row[1]), float(row[2]))
+                c.disc(yy, xx, 5, colour)
+                c.text(int(yy) + 7, int(xx) - 8, name[:6], colour, scale=1)
+    bar = int(round(0.05 / span * (panel - 1)))
+    c.rect(y0 + panel - 12, x0 + 8, y0 + panel - 9, x0 + 8 + bar, INK)
+    c.text(y0 + panel - 26, x0 + 8, "5 CM", INK)
+    c.text(y0 + 4, x0 + panel + margin, "PARTS AS NAMED DISCS", INK)
+    c.text(y0 + 20, x0 + panel + margin, f"DISTANCE {hidden.distance:.2f}", INK)
+    c.text(y0 + 36, x0 + panel + margin, f"DRAWS {hidden.draws}", INK)
+    ys = head + panel + 2 * margin
+    half = (width - 3 * margin) // 2
+    c.text(y0 + 60, x0 + panel + margin, "BELOW: OVERVIEW CAMERA", INK)
+    c.text(y0 + 76, x0 + panel + margin, "LEFT SOURCE  RIGHT INSTANCE", INK)
+    for k, img in enumerate(shots):
+        c.blit(ys, margin + k * (half + margin), _resize(img, half))
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"track2_preview_seed{scenario.seed}_{scenario.split}.png"
+    from simhost import write_png
+
+    write_png(path, c.img)
+    return path

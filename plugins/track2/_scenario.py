@@ -1,17 +1,23 @@
 """Hidden Track 2 scenarios: a family, a demonstrated source and a hidden instance near it.
 
-From the episode seed (``numpy.random.default_rng(seed)``): the family is
-``FAMILIES[seed % 5]`` (families mix evenly over seeds) unless the split names one; then three
-sub-seeds draw the source (around the bench's canonical source, spread ``source_spread``),
-the hidden instance (around the source, spread ``difficulty``) and the demonstration's reset
-seed. The scripted expert must solve both the source (the packet shows a success) and the
-hidden instance (every instance is feasible within one attempt's step cap); a draw it fails
-is redrawn with the next sub-seed, at most ``MAX_DRAWS`` times.
+The split names a preset of ``simhost.track2.SPLITS`` (``dev``, ``standard``,
+``challenge``; another split name must say ``preset``). From the episode seed
+(``numpy.random.default_rng(seed)``) come four sub-seeds: the source (drawn around the
+bench's canonical source, spread ``source_spread``), the hidden instance (around the source,
+as the split's variation says), the demonstration's reset seed and the episode's reset seed
+(attempt ``k`` resets with ``episode_seed + k``: its jitter and its observation noise).
 
-Scenario parameters (organizer-only; the agent sees the source's public part in the packet):
-``family``, ``difficulty``, ``source`` and ``instance`` (full ``InstanceParams`` as JSON),
-``distance`` (``instance_distance(source, instance)``), ``demo_seed``, ``attempt_steps``,
-``max_attempts``, ``demo_frames``.
+The family is ``FAMILIES[index % 5]`` for the episode's index within its split in a
+campaign (families balanced by index), ``FAMILIES[seed % 5]`` for a one-off episode, unless
+the split names one.
+
+Feasibility: the privileged expert must solve the source (the packet shows a success), and
+the *observation* expert — the scripted expert reading the noisy, delayed, occluded
+observations the agent will get, with the first attempt's very noise — must solve the
+hidden instance within one attempt's step cap. A draw that fails is redrawn with the next
+sub-seed, at most ``MAX_DRAWS`` times; ``Track2Scenario.expert_steps`` records what it took.
+
+Scenario parameters (organizer-only) are one typed model, :class:`Track2Scenario`.
 """
 
 from __future__ import annotations
@@ -20,30 +26,61 @@ import difflib
 import functools
 import math
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any, Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from plugins._registry import PluginError
-
-if TYPE_CHECKING:
-    from simhost.track2 import InstanceParams
+from simhost.track2 import (
+    FAMILIES,
+    SPLITS,
+    BenchConfig,
+    InstanceParams,
+    VariationConfig,
+    family_step_cap,
+    instance_distance,
+    sample_instance,
+)
 
 MAX_ATTEMPTS = 3
-SOURCE_SPREAD = 0.3
 MAX_DRAWS = 8
-DEFAULT_DIFFICULTY = 0.5
-KNOWN_PARAMS = ("family", "difficulty", "source_spread", "attempt_steps", "max_attempts",
-                "demo_frames")
+KNOWN_PARAMS = ("preset", "family", "difficulty", "source_spread", "attempt_steps",
+                "max_attempts", "demo_frames", "rgbd_only")
 
 
-def family_of(seed: int, params: Mapping[str, Any]) -> str:
-    """The seed's family, or the one the split names."""
-    from simhost.track2 import FAMILIES
+class Track2Scenario(BaseModel):
+    """Everything hidden about one Track 2 episode (``Scenario.params`` as JSON)."""
 
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    version: Literal["eagc-track2-scenario/v2"] = "eagc-track2-scenario/v2"
+    preset: str = Field(description="The split preset: dev, standard or challenge.")
+    family: str
+    bench: BenchConfig
+    variation: VariationConfig
+    source: InstanceParams = Field(description="The demonstrated instance.")
+    instance: InstanceParams = Field(description="The hidden instance the agent executes.")
+    distance: float = Field(description="instance_distance(source, instance), in [0, 1].")
+    demo_seed: int
+    episode_seed: int = Field(description="Attempt k resets with episode_seed + k.")
+    attempt_steps: int
+    max_attempts: int
+    demo_frames: bool = True
+    expert_steps: int | None = Field(description="Steps the observation expert needed on the "
+                                     "first attempt (None: no draw was solved).")
+    draws: int = Field(description="Instances drawn until one was feasible.")
+
+    def reset_seed(self, attempt: int) -> int:
+        """The reset seed of attempt ``attempt`` (1-based)."""
+        return self.episode_seed + attempt
+
+
+def family_of(seed: int, index: int | None, params: Mapping[str, Any]) -> str:
+    """The episode's family: the split's, else by index within the split, else by seed."""
     fam = params.get("family")
     if fam is None:
-        return FAMILIES[seed % len(FAMILIES)]
+        return FAMILIES[(seed if index is None else index) % len(FAMILIES)]
     if fam not in FAMILIES:
         hint = difflib.get_close_matches(str(fam), FAMILIES, n=1)
         did = f" Did you mean {hint[0]!r}?" if hint else ""
@@ -51,17 +88,55 @@ def family_of(seed: int, params: Mapping[str, Any]) -> str:
     return str(fam)
 
 
-@functools.lru_cache(maxsize=256)
-def expert_steps(instance_json: str, cap: int) -> int | None:
-    """Steps the scripted expert needs on an instance (``None``: not solved within ``cap``)."""
-    from simhost.track2 import BenchEnv, InstanceParams, ScriptedExpert
+def _check(split: str, params: Mapping[str, Any]) -> str:
+    """The preset to use; raises ``PluginError`` on unknown or ill-typed parameters."""
+    for key in sorted(set(params) - set(KNOWN_PARAMS)):
+        hint = difflib.get_close_matches(key, KNOWN_PARAMS, n=1)
+        did = f" Did you mean {hint[0]!r}?" if hint else ""
+        raise PluginError(f"track2: unknown scenario parameter {key!r}.{did} Known: "
+                          f"{list(KNOWN_PARAMS)}")
+    preset = str(params.get("preset", split))
+    if preset not in SPLITS:
+        hint = difflib.get_close_matches(preset, list(SPLITS), n=1)
+        did = f" Did you mean {hint[0]!r}?" if hint else ""
+        raise PluginError(f"track2: unknown split {preset!r}.{did} Splits: {list(SPLITS)} "
+                          "(another split name must set params.preset)")
+    for key in ("difficulty", "source_spread"):
+        v = params.get(key)
+        if v is not None and not (isinstance(v, int | float) and not isinstance(v, bool)
+                                  and math.isfinite(v) and 0.0 <= v <= 1.0):
+            raise PluginError(f"track2: {key} must be a number in [0, 1], got {v!r}")
+    for key, hi in (("attempt_steps", 100_000), ("max_attempts", MAX_ATTEMPTS)):
+        v = params.get(key)
+        if v is not None and not (isinstance(v, int) and not isinstance(v, bool)
+                                  and 1 <= v <= hi):
+            raise PluginError(f"track2: {key} must be an integer in [1, {hi}], got {v!r}")
+    for key in ("demo_frames", "rgbd_only"):
+        v = params.get(key)
+        if v is not None and not isinstance(v, bool):
+            raise PluginError(f"track2: {key} must be true or false, got {v!r}")
+    return preset
 
-    env = BenchEnv(InstanceParams.model_validate_json(instance_json), max_steps=cap)
+
+@functools.lru_cache(maxsize=512)
+def expert_steps(instance_json: str, bench_json: str, seed: int, bias_seed: int | None,
+                 cap: int, observed: bool) -> int | None:
+    """Steps the scripted expert needs on an instance reset with ``seed`` (and the episode's
+    ``bias_seed``), ``None`` if not solved within ``cap``. ``observed``: it reads the
+    observations, not the simulation."""
+    from simhost.track2 import BenchEnv, ScriptedExpert
+
+    bench = BenchConfig.model_validate_json(bench_json)
+    if not bench.observation.parts:  # the observation expert reads the parts rows
+        bench = bench.model_copy(update={"observation": bench.observation.model_copy(
+            update={"parts": True})})
+    env = BenchEnv(InstanceParams.model_validate_json(instance_json), config=bench,
+                   render_rgbd=False, max_steps=cap)
     try:
-        env.reset(seed=0)
-        expert = ScriptedExpert(env)
+        obs, _ = env.reset(seed=seed, options={"bias_seed": bias_seed})
+        expert = ScriptedExpert(env, observed=observed, obs=obs)
         for k in range(1, cap + 1):
-            _, _, terminated, truncated, info = env.step(expert())
+            obs, _, terminated, truncated, info = env.step(expert(obs))
             if info["success"]:
                 return k
             if terminated or truncated:
@@ -71,60 +146,55 @@ def expert_steps(instance_json: str, cap: int) -> int | None:
         env.close()
 
 
-def _check(params: Mapping[str, Any]) -> None:
-    for key in sorted(set(params) - set(KNOWN_PARAMS)):
-        hint = difflib.get_close_matches(key, KNOWN_PARAMS, n=1)
-        did = f" Did you mean {hint[0]!r}?" if hint else ""
-        raise PluginError(f"track2: unknown scenario parameter {key!r}.{did} Known: "
-                          f"{list(KNOWN_PARAMS)}")
-    for key in ("difficulty", "source_spread"):
-        v = params.get(key)
-        if v is not None and not (isinstance(v, int | float) and math.isfinite(v)
-                                  and 0.0 <= v <= 1.0):
-            raise PluginError(f"track2: {key} must be a number in [0, 1], got {v!r}")
-    for key, hi in (("attempt_steps", 100_000), ("max_attempts", MAX_ATTEMPTS)):
-        v = params.get(key)
-        if v is not None and not (isinstance(v, int) and 1 <= v <= hi):
-            raise PluginError(f"track2: {key} must be an integer in [1, {hi}], got {v!r}")
-
-
-def _first_solved(draw: Callable[[int], InstanceParams], cap: int) -> InstanceParams:
-    """The first of ``draw(0)``, ``draw(1)``, … the expert solves (else the last drawn)."""
-    params = draw(0)
+def _first_solved(draw: Callable[[int], tuple[InstanceParams, int]],
+                  solved: Callable[[InstanceParams, int], int | None]
+                  ) -> tuple[InstanceParams, int, int | None, int]:
+    """The first draw ``draw(0)``, ``draw(1)``, … (an instance and its episode seed) that
+    ``solved`` solves, else the last; with the expert's steps and the number of draws."""
+    params, seed = draw(0)
+    steps = None
     for k in range(1, MAX_DRAWS + 1):
-        if expert_steps(params.model_dump_json(), cap) is not None:
-            break
-        params = draw(k)
-    return params
+        steps = solved(params, seed)
+        if steps is not None:
+            return params, seed, steps, k
+        params, seed = draw(k)
+    return params, seed, steps, MAX_DRAWS
 
 
-def scenario_params(seed: int, params: Mapping[str, Any]) -> dict[str, Any]:
-    """The hidden parameters of ``seed`` given the split's (and campaign's) parameters."""
-    from simhost.track2 import instance_distance, sample_instance
-    from simhost.track2._families import TASKS
-
-    _check(params)
-    family = family_of(seed, params)
-    difficulty = float(params.get("difficulty", DEFAULT_DIFFICULTY))
-    spread = float(params.get("source_spread", SOURCE_SPREAD))
-    cap = int(params.get("attempt_steps") or TASKS[family].max_steps)
+def make_track2_scenario(seed: int, split: str, params: Mapping[str, Any],
+                         index: int | None = None) -> Track2Scenario:
+    """The hidden scenario of ``seed`` (``index`` within its split) in ``split``."""
+    preset_name = _check(split, params)
+    preset = SPLITS[preset_name]
+    family = family_of(seed, index, params)
+    variation = preset.variation
+    update = {k: float(params[k]) for k in ("difficulty", "source_spread") if k in params}
+    if update:
+        variation = variation.model_copy(update=update)
+    bench = preset.bench
+    if params.get("rgbd_only"):
+        bench = bench.model_copy(update={"observation": bench.observation.model_copy(
+            update={"parts": False, "rgbd": True, "segmentation": True})})
+    cap = int(params.get("attempt_steps") or family_step_cap(family))
     rng = np.random.default_rng(seed)
-    src_seed, inst_seed, demo_seed = (int(x) for x in rng.integers(0, 2**31 - MAX_DRAWS, 3))
-    # The demonstration must show a success: the expert gets the family's full step cap.
-    full = TASKS[family].max_steps
-    source = _first_solved(
-        lambda k: sample_instance(family, src_seed + k, difficulty=spread), full)
-    instance = _first_solved(
-        lambda k: sample_instance(family, inst_seed + k, source=source, difficulty=difficulty),
-        cap)
-    return {
-        "family": family,
-        "difficulty": difficulty,
-        "source": source.model_dump(mode="json"),
-        "instance": instance.model_dump(mode="json"),
-        "distance": round(instance_distance(source, instance), 6),
-        "demo_seed": demo_seed,
-        "attempt_steps": cap,
-        "max_attempts": int(params.get("max_attempts", MAX_ATTEMPTS)),
-        "demo_frames": bool(params.get("demo_frames", True)),
-    }
+    src_seed, inst_seed, demo_seed, episode_seed = (
+        int(x) for x in rng.integers(0, 2**31 - (MAX_DRAWS + 1) * (MAX_ATTEMPTS + 1), 4))
+    bench_json = bench.model_dump_json()
+    full = family_step_cap(family)
+    around_canon = variation.model_copy(update={"goal_from_source": False,
+                                                "difficulty": variation.source_spread})
+    source, demo_seed, _, _ = _first_solved(
+        lambda k: (sample_instance(family, src_seed + k, variation=around_canon), demo_seed + k),
+        lambda p, s: expert_steps(p.model_dump_json(), bench_json, s, None, full, False))
+    # A redraw also redraws the episode's seed: its jitter, noise and measurement biases.
+    stride = MAX_ATTEMPTS + 1
+    instance, episode_seed, steps, draws = _first_solved(
+        lambda k: (sample_instance(family, inst_seed + k, source=source, variation=variation),
+                   episode_seed + stride * k),
+        lambda p, s: expert_steps(p.model_dump_json(), bench_json, s + 1, s, cap, True))
+    return Track2Scenario(
+        preset=preset_name, family=family, bench=bench, variation=variation, source=source,
+        instance=instance, distance=round(instance_distance(source, instance), 6),
+        demo_seed=demo_seed, episode_seed=episode_seed, attempt_steps=cap,
+        max_attempts=int(params.get("max_attempts", MAX_ATTEMPTS)),
+        demo_frames=bool(params.get("demo_frames", True)), expert_steps=steps, draws=draws)

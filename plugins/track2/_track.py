@@ -1,13 +1,16 @@
 """``Track2``: one-demonstration rapid adaptation (paper §IV, DESIGN §6).
 
 Stages (Table V, official budgets): ``demonstration`` 5 min, ``parsing`` 20 min (nothing
-moves), ``execution`` 30 min with up to three attempts (see ``_episode``). The packet is
-written by ``write_inputs`` into the read-only input folder (``/input/demo`` in the
-container). Splits: ``standard`` (difficulty 0.4) and ``challenge`` (0.8); families mix by
-seed. Files: ``task_model.json`` and ``episode_log.jsonl``, both required. Score: eq. (3),
-see ``_scoring``. Leaderboard: Table VII's columns; the average is the mean over instances
-(the paper's ranking rule), which equals Table VII's mean over families when families are
-equally represented, as they are over consecutive seeds.
+moves), ``execution`` 30 min with up to three attempts (see ``_episode``). The packet
+(``eagc-demo/v2``) is written by ``write_inputs`` into the read-only input folder
+(``/input/demo`` in the container). Splits (``simhost.track2.SPLITS``): the official
+``standard`` and ``challenge`` (a robot's observation, a goal defined by the demonstration,
+wide variation; the final score's splits) and the public ``dev`` (today's level, an extra
+split); a campaign split of another name sets ``params.preset``. Families are balanced by
+the episode's index within its split (``index mod 5``). Files: ``task_model.json`` and
+``episode_log.jsonl``, both required. Score: eq. (3), see ``_scoring``. Leaderboard: Table
+VII's columns; the average is the mean over families of each family's mean score, as in
+Table VII.
 """
 
 from __future__ import annotations
@@ -27,7 +30,8 @@ from plugins._base import (
 )
 from plugins.track2 import _scoring
 from plugins.track2._episode import DEMO_FOLDER, DEMONSTRATION, EXECUTION, PARSING, Track2Episode
-from plugins.track2._scenario import scenario_params
+from plugins.track2._outcome import Track2Outcome
+from plugins.track2._scenario import Track2Scenario, make_track2_scenario
 from schemas import EpisodeResult, ScoreCard, TaskModel
 from simhost._episode import StageSpec, TrackEpisode
 
@@ -55,9 +59,10 @@ class Track2(TrackPlugin):
         "episode_log.jsonl": FileRule(None, jsonl=True),
     }
     splits = {
-        "standard": (0.5, {"difficulty": 0.4}),
-        "challenge": (0.5, {"difficulty": 0.8}),
+        "standard": (0.5, {}),
+        "challenge": (0.5, {}),
     }
+    extra_splits = ("dev",)
     columns = (
         *(Column(k, t) for k, t in FAMILY_COLUMNS),
         Column("final", "Avg. Score"),
@@ -84,56 +89,56 @@ class Track2(TrackPlugin):
         self, *, seed: int, split: str, params: Mapping[str, Any], index: int | None = None
     ) -> Scenario:
         merged = {**self.splits.get(split, (1.0, {}))[1], **params}
+        hidden = make_track2_scenario(seed, split, merged, index)
         return Scenario(track=self.name, split=split, seed=seed,
-                        params=scenario_params(seed, merged))
+                        params=hidden.model_dump(mode="json"))
 
     def make_episode(self, scenario: Scenario) -> TrackEpisode:
         return Track2Episode(scenario)
 
     def write_inputs(self, scenario: Scenario, folder: Path) -> None:
         """The demonstration packet of the scenario's source, in ``folder/demo``."""
-        from simhost.track2 import InstanceParams, write_demo_packet
+        from simhost.track2 import write_demo_packet
 
-        p = scenario.params
-        write_demo_packet(folder / DEMO_FOLDER, InstanceParams.model_validate(p["source"]),
-                          seed=int(p["demo_seed"]), frames=bool(p.get("demo_frames", True)))
+        s = Track2Scenario.model_validate(scenario.params)
+        write_demo_packet(folder / DEMO_FOLDER, s.source, seed=s.demo_seed, config=s.bench,
+                          frames=s.demo_frames)
 
     def score(self, data: ScoringInput) -> ScoreCard:
-        from simhost.track2 import InstanceParams, task_truth
+        from simhost.track2 import task_truth
 
-        p = data.scenario.params
-        truth = task_truth(InstanceParams.model_validate(p["instance"]))
-        o = data.outcome
+        s = Track2Scenario.model_validate(data.scenario.params)
+        truth = task_truth(s.instance, s.bench)
+        o = Track2Outcome.model_validate(dict(data.outcome)) if data.outcome else \
+            Track2Outcome(family=s.family, max_attempts=s.max_attempts)
         model = _latest_model(data)
         parts = _scoring.model_parts(model, truth)
         invalid = data.invalid_actions + data.protocol_errors
         components = {
-            "success": float(bool(o.get("success"))),
-            "adaptation": _scoring.adaptation(o),
-            "generalization": _scoring.generalization(o, float(p.get("distance", 0.0))),
-            "task_model": sum(parts.values()) / len(parts),
+            "success": float(o.success),
+            "adaptation": _scoring.adaptation(o, _scoring.granted_adapt_s(data.stage_budgets_s)),
+            "generalization": _scoring.generalization(o),
+            "task_model": sum(_scoring.MODEL_WEIGHTS[k] * v for k, v in parts.items()),
             "stability": _scoring.stability(o, invalid),
         }
         total = sum(self.weights[k] * v for k, v in components.items())
-        family = str(p["family"])
         metrics = {
             "task_success": components["success"],
             "task_model": components["task_model"],
-            "attempts": float(_scoring.attempts_needed(o)),
-            "adapt_time_min": float(o.get("adapt_time_s") or 0.0) / 60.0,
-            "progress": 1.0 if o.get("success") else float(o.get("best_progress") or 0.0),
-            "distance": float(p.get("distance", 0.0)),
+            "attempts": float(o.attempts_needed),
+            "adapt_time_min": o.adapt_time_s / 60.0,
+            "progress": components["generalization"],
+            "distance": s.distance,
             "invalid_actions": float(invalid),
-            f"family_{family}": 1.0,
+            f"family_{s.family}": 1.0,
             **{f"task_model_{k}": v for k, v in parts.items()},
         }
-        tried = len(o.get("attempts", []))
-        notes = [f"family={family}", f"attempts={tried}, success at "
-                 f"{o.get('success_attempt') or 'none'}"]
+        notes = [f"family={s.family}", f"attempts={len(o.attempts)}, success at "
+                 f"{o.success_attempt or 'none'}"]
         if model is None:
             notes.append("no valid task_model.json")
-        elif model.family != family:
-            notes.append(f"task model names family {model.family!r}, the task is {family!r}")
+        elif model.family != s.family:
+            notes.append(f"task model names family {model.family!r}, the task is {s.family!r}")
         return ScoreCard(track=self.name, total=min(1.0, max(0.0, total)),
                          components=components, weights=dict(self.weights), metrics=metrics,
                          notes=tuple(notes))
@@ -144,18 +149,24 @@ class Track2(TrackPlugin):
 
         return attempt_png(episode_dir, path=out)
 
+    def preview(self, *, seed: int, split: str, out: Path) -> Path:
+        """The demonstrated source beside the hidden instance of ``seed`` in ``split``."""
+        from plugins.track2._picture import preview_png
+
+        scenario = self.make_scenario(seed=seed, split=split, params={"demo_frames": False})
+        return preview_png(scenario, out)
+
     def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:
-        """Table VII's row: per-family and average scores (0–100), success and task-model
-        percentages, mean attempts needed, adaptation and run time in minutes."""
+        """Table VII's row: per-family scores (0–100), their mean (``final``, Avg.), success
+        and task-model percentages, mean attempts needed, adaptation and run time in
+        minutes; per split, the mean over its families too."""
         row: dict[str, float | None] = {}
         for fam, _ in FAMILY_COLUMNS:
             row[fam] = _mean([100.0 * r.score.total for r in results
                               if r.score.metrics.get(f"family_{fam}")])
-        by_split: dict[str, list[float]] = {}
-        for r in results:
-            by_split.setdefault(r.split, []).append(100.0 * r.score.total)
-        row.update({s: _mean(v) for s, v in by_split.items()})
-        row["final"] = _mean([100.0 * r.score.total for r in results])
+        row["final"] = _family_mean(results)
+        for split in sorted({r.split for r in results}):
+            row[split] = _family_mean([r for r in results if r.split == split])
 
         def metric(key: str, scale: float = 1.0) -> float | None:
             vals = [r.score.metrics[key] for r in results if key in r.score.metrics]
@@ -168,3 +179,10 @@ class Track2(TrackPlugin):
         row["invalid_actions"] = metric("invalid_actions")
         row.update(resource_columns(results))
         return row
+
+
+def _family_mean(results: Sequence[EpisodeResult]) -> float | None:
+    """The mean over families of each family's mean score (0–100), as in Table VII."""
+    per = [_mean([100.0 * r.score.total for r in results
+                  if r.score.metrics.get(f"family_{fam}")]) for fam, _ in FAMILY_COLUMNS]
+    return _mean([p for p in per if p is not None])

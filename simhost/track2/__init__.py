@@ -2,22 +2,30 @@
 
 Five task families (the paper's Table VI) on one table with a two-finger gripper driven by
 end-effector deltas at 20 Hz: ``insertion``, ``rotation``, ``assembly``, ``opening``,
-``tool_use``. What a user may touch:
+``tool_use``. Three splits (``SPLITS``): the public ``dev`` split (exact state, a stated goal,
+narrow ranges) and the official ``standard`` and ``challenge`` splits (a robot's noisy,
+delayed, occluded view, RGB-D, a goal defined by the demonstration, wide ranges). What a
+user may touch:
 
+- splits: :class:`SplitConfig` = :class:`BenchConfig` (:class:`ObservationConfig`,
+  :class:`Tolerances`, grip slip, per-attempt jitter) + :class:`VariationConfig`;
+  ``SPLITS``, :func:`split_config`;
 - instances: :class:`InstanceParams`, :func:`default_source`, :func:`sample_instance`,
-  :func:`instance_distance`, ``FAMILIES``, ``PARAM_TABLES``;
+  :func:`instance_distance`, ``FAMILIES``, ``PARAM_TABLES``, :func:`family_step_cap`;
 - the environment: :class:`BenchEnv` (a ``gymnasium.Env``), :func:`register_envs`
-  (``eagc/Bench-<Family>-v0``);
-- ground truth for scoring: :func:`task_truth`;
-- the scripted expert: :class:`ScriptedExpert`, :func:`expert_policy`;
-- demonstration packets: :func:`write_demo_packet`, :func:`read_demo_packet`,
-  :class:`DemoPacket`, :class:`DemoManifest`;
+  (``eagc/Bench-<Family>-v0``, ``split=`` as a keyword), ``PART_FIELDS``;
+- ground truth for scoring: :class:`TaskTruth`, :func:`task_truth`;
+- the scripted expert: :class:`ScriptedExpert` (privileged, or through the observations),
+  :func:`expert_policy`;
+- demonstration packets (``eagc-demo/v2``): :func:`write_demo_packet`,
+  :func:`read_demo_packet`, :class:`DemoPacket` (the manifest model is
+  ``schemas.DemoManifest``);
 - a picture: :func:`render_attempt_vs_demo`;
 - errors: :class:`Track2Error` and its subclasses.
 
-Instance parameters, the truth, the packet reader and the picture import without MuJoCo; the
-environment, expert and packet writer load it on first use. ``MUJOCO_GL`` defaults to
-``egl`` (headless) unless already set.
+Configs, instance parameters, the truth, the packet reader and the picture import without
+MuJoCo; the environment, expert and packet writer load it on first use. ``MUJOCO_GL``
+defaults to ``egl`` (headless) unless already set.
 """
 
 from __future__ import annotations
@@ -26,7 +34,24 @@ import importlib
 import os
 from typing import TYPE_CHECKING, Any
 
-from ._errors import DemoPacketError, InstanceParamsError, StateError, Track2Error
+from ._bench import PART_FIELDS
+from ._config import (
+    SPLITS,
+    BenchConfig,
+    ObservationConfig,
+    SplitConfig,
+    Tolerances,
+    VariationConfig,
+    split_config,
+)
+from ._errors import (
+    DemoPacketError,
+    InstanceParamsError,
+    SplitConfigError,
+    StateError,
+    Track2Error,
+)
+from ._families import family_step_cap
 from ._params import (
     FAMILIES,
     PARAM_TABLES,
@@ -36,50 +61,63 @@ from ._params import (
     instance_distance,
     sample_instance,
 )
+from ._register import ENV_IDS, env_id, register_envs
+from ._truth import TaskTruth, TruthConstraint, TruthCriterion, TruthVariable, task_truth
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 if TYPE_CHECKING:
     from ._demo import write_demo_packet
-    from ._env import BenchEnv, register_envs
+    from ._env import BenchEnv
     from ._expert import ScriptedExpert, expert_policy
-    from ._packet import DemoManifest, DemoPacket, read_demo_packet
+    from ._packet import DemoPacket, read_demo_packet
     from ._picture import render_attempt_vs_demo
-    from ._truth import task_truth
 
 _LAZY = {
     "BenchEnv": "._env",
-    "register_envs": "._env",
     "ScriptedExpert": "._expert",
     "expert_policy": "._expert",
-    "DemoManifest": "._packet",
     "DemoPacket": "._packet",
     "read_demo_packet": "._packet",
     "write_demo_packet": "._demo",
     "render_attempt_vs_demo": "._picture",
-    "task_truth": "._truth",
 }
 
 __all__ = [
+    "ENV_IDS",
     "FAMILIES",
     "PARAM_TABLES",
+    "PART_FIELDS",
+    "SPLITS",
+    "BenchConfig",
     "BenchEnv",
-    "DemoManifest",
     "DemoPacket",
     "DemoPacketError",
     "InstanceParams",
     "InstanceParamsError",
+    "ObservationConfig",
     "ParamSpec",
     "ScriptedExpert",
+    "SplitConfig",
+    "SplitConfigError",
     "StateError",
+    "TaskTruth",
+    "Tolerances",
     "Track2Error",
+    "TruthConstraint",
+    "TruthCriterion",
+    "TruthVariable",
+    "VariationConfig",
     "default_source",
+    "env_id",
     "expert_policy",
+    "family_step_cap",
     "instance_distance",
     "read_demo_packet",
     "register_envs",
     "render_attempt_vs_demo",
     "sample_instance",
+    "split_config",
     "task_truth",
     "write_demo_packet",
 ]

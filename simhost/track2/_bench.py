@@ -34,6 +34,7 @@ GRIP_FORCE = 20.0  # N, cap of each finger's servo force
 ACTION_NAMES = ("dx", "dy", "dz", "dyaw", "grip")
 PROPRIO_NAMES = ("x", "y", "z", "yaw", "width", "contact_left", "contact_right")
 FORCE_NAMES = ("left", "right", "palm", "fx", "fy", "fz")
+PART_FIELDS = ("present", "x", "y", "z", "qw", "qx", "qy", "qz", "joint", "age")
 HAND_JOINTS = ("hand_x", "hand_y", "hand_z", "hand_yaw")
 
 
@@ -46,9 +47,14 @@ class Scene:
     contact: str = ""
 
 
-def build_mjcf(scene: Scene, *, surface_friction: float) -> str:
-    """The whole MJCF document: options, table, gripper, camera and the family's bodies."""
+def build_mjcf(scene: Scene, *, surface_friction: float, grip_slip: bool = False) -> str:
+    """The whole MJCF document: options, table, gripper, camera and the family's bodies.
+
+    With ``grip_slip`` the fingers' contacts take the touched geom's friction (the fingers
+    have the lower ``priority``): a grasp on a slippery part can slip.
+    """
     lo, hi = WORKSPACE_LO, WORKSPACE_HI
+    prio = ' priority="-1"' if grip_slip else ""
     fx, fy, fz = FINGER_HALF
     wmax = WIDTH_MAX / 2 + 0.001
     return f"""<mujoco model="eagc_bench">
@@ -84,13 +90,13 @@ def build_mjcf(scene: Scene, *, surface_friction: float) -> str:
         <joint name="finger_l" type="slide" axis="0 1 0" range="0 {wmax}" damping="4"
           armature="0.01"/>
         <geom name="finger_l" type="box" pos="0 {fy} {fz}" size="{fx} {fy} {fz}" mass="0.05"
-          condim="4" friction="1.5 0.02 0.0001" rgba="0.2 0.5 0.8 1"/>
+          condim="4" friction="1.5 0.02 0.0001" rgba="0.2 0.5 0.8 1"{prio}/>
       </body>
       <body name="finger_r" gravcomp="1">
         <joint name="finger_r" type="slide" axis="0 -1 0" range="0 {wmax}" damping="4"
           armature="0.01"/>
         <geom name="finger_r" type="box" pos="0 {-fy} {fz}" size="{fx} {fy} {fz}" mass="0.05"
-          condim="4" friction="1.5 0.02 0.0001" rgba="0.2 0.5 0.8 1"/>
+          condim="4" friction="1.5 0.02 0.0001" rgba="0.2 0.5 0.8 1"{prio}/>
       </body>
     </body>
     {scene.bodies}

@@ -1,6 +1,8 @@
 """``write_demo_packet``: run the scripted expert on a source instance, write the packet.
 
-The format is described in ``_packet.py`` (``eagc-demo/v1``).
+The format is ``schemas.DemoManifest`` (``eagc-demo/v2``). The expert is the privileged one
+(a demonstrator knows what it is doing); the observations it leaves in the packet are the
+ones its robot made through the split's observation channel.
 """
 
 from __future__ import annotations
@@ -9,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from schemas._demo import Annotation, ArraySpec, DemoManifest, FrameSpec, KeyStage
+
 from .._png import encode_png
 from ._bench import (
     ACTION_NAMES,
@@ -16,17 +20,27 @@ from ._bench import (
     DPOS_MAX,
     DYAW_MAX,
     FORCE_NAMES,
-    PHYSICS_DT,
+    PART_FIELDS,
     PROPRIO_NAMES,
-    SUBSTEPS,
     WIDTH_MAX,
 )
+from ._config import BenchConfig
 from ._env import BenchEnv
 from ._errors import DemoPacketError
 from ._expert import ScriptedExpert
-from ._family import GOAL_NAMES, PART_FIELDS
-from ._packet import OBS_KEYS, Annotation, ArraySpec, DemoManifest, FrameSpec, KeyStage
+from ._family import GOAL_NAMES
+from ._packet import OBS_KEYS
 from ._params import InstanceParams
+
+BOUNDARY_RESOLUTION = 10
+"""Key-stage boundaries are rounded to multiples of this many observations (0.5 s)."""
+GOAL_EVENTS = ("inserted", "turned", "placed", "opened", "closed", "pressed", "aligned")
+_TEXT = {
+    "proprio": "TCP x, y, z (m), yaw (rad), finger opening (m), left/right finger contact",
+    "parts": "per part row: present, x, y, z, qw, qx, qy, qz, joint, age (s)",
+    "force": "normal contact force on left finger, right finger, palm; net force x, y, z (N)",
+    "goal": "[stated, g1, g2, g3]: the task's stated goal parameters (dev split only)",
+}
 
 
 def _spec(env: BenchEnv, key: str) -> ArraySpec:
@@ -40,21 +54,41 @@ def _spec(env: BenchEnv, key: str) -> ArraySpec:
         high=float(np.max(box.high)),  # type: ignore[attr-defined]
         names=list(names),
         rows=list(env.task.part_names) if key == "parts" else [],
+        description=_TEXT[key],
     )
 
 
-def _segments(stages: list[int], names: list[str]) -> list[KeyStage]:
-    """Key-stage ranges from per-observation stage indices (running maximum; -1 = done)."""
-    out: list[KeyStage] = []
+def _segments(stages: list[int], names: list[str]) -> list[tuple[str, int, int]]:
+    """Exact key-stage ranges from per-observation stage indices (running max; -1 = done)."""
+    out: list[tuple[str, int, int]] = []
     best = -1
     for k, s in enumerate(stages):
         if s < 0:
             break
         best = max(best, s)
-        if out and out[-1].name == names[best]:
-            out[-1] = KeyStage(name=out[-1].name, start=out[-1].start, end=k + 1)
+        if out and out[-1][0] == names[best]:
+            out[-1] = (out[-1][0], out[-1][1], k + 1)
         else:
-            out.append(KeyStage(name=names[best], start=k, end=k + 1))
+            out.append((names[best], k, k + 1))
+    return out
+
+
+def coarse_stages(stages: list[int], names: list[str], resolution: int) -> list[KeyStage]:
+    """Key stages with inner boundaries rounded to multiples of ``resolution`` (kept in
+    order and non-empty): what an annotator marks, not the true per-step stage."""
+    exact = _segments(stages, names)
+    if not exact:
+        return []
+    end = exact[-1][2]
+    bounds = [0]
+    for _, start, _ in exact[1:]:
+        b = int(round(start / resolution)) * resolution
+        bounds.append(min(max(b, bounds[-1] + 1), end - 1))
+    out = []
+    for i, (name, _, _) in enumerate(exact):
+        hi = bounds[i + 1] if i + 1 < len(bounds) else end
+        if hi > bounds[i]:
+            out.append(KeyStage(name=name, start=bounds[i], end=hi))
     return out
 
 
@@ -63,18 +97,21 @@ def write_demo_packet(
     params: InstanceParams,
     *,
     seed: int,
+    config: BenchConfig | None = None,
     frames: bool = False,
     frame_every: int = 5,
-    image_size: tuple[int, int] = (120, 160),
+    image_size: tuple[int, int] | None = None,
 ) -> DemoManifest:
     """Run the scripted expert on ``params`` and write the packet into ``folder``.
 
     Args:
       folder: created if missing; must not already hold a ``manifest.json``.
       params: the source instance.
-      seed: passed to ``env.reset(seed=...)``; not written to the packet.
-      frames: also write PNG frames every ``frame_every`` observations (and the last one).
-      image_size: ``(height, width)`` of the frames.
+      seed: passed to ``env.reset(seed=...)`` (jitter and observation noise); not written.
+      config: the split's bench config (default: the dev split's).
+      frames: also write RGB frames (and depth in ``frame_depth``) every ``frame_every``
+        observations and the last one.
+      image_size: ``(height, width)`` of the frames (default: the config's).
 
     Returns:
       The manifest as written.
@@ -83,68 +120,72 @@ def write_demo_packet(
     if (out / "manifest.json").exists():
         raise DemoPacketError(f"{out} already holds a demonstration packet; use an empty folder")
     out.mkdir(parents=True, exist_ok=True)
-    env = BenchEnv(params, render_mode="rgb_array" if frames else None, image_size=image_size)
+    env = BenchEnv(params, config=config, render_rgbd=None,
+                   render_mode="rgb_array" if frames else None,
+                   image_size=image_size)
+    keys = [k for k in OBS_KEYS if k in env.observation_space.spaces]
     try:
         obs, info = env.reset(seed=seed)
         expert = ScriptedExpert(env)
         names = list(env.task.stages())
-        observations = {k: [obs[k]] for k in OBS_KEYS}
-        actions, rewards, progress = [], [], [info["progress"]]
+        observations = {k: [obs[k]] for k in keys}
+        actions = []
         stage_idx = [names.index(info["stage"]) if info["stage"] in names else -1]
-        events: list[Annotation] = []
-        shots: dict[int, np.ndarray] = {0: env.render()} if frames else {}  # type: ignore[dict-item]
+        events: list[tuple[int, dict[str, str]]] = []
+        shots: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        if frames:
+            shots[0] = env._render(depth=True)[:2]
         done = False
         while not done:
             action = expert()
-            obs, reward, term, trunc, info = env.step(action)
+            obs, _, term, trunc, info = env.step(action)
             k = len(actions) + 1
             actions.append(np.asarray(action, dtype=np.float32))
-            rewards.append(reward)
-            progress.append(info["progress"])
             stage_idx.append(names.index(info["stage"]) if info["stage"] in names else -1)
-            for k_obs in OBS_KEYS:
-                observations[k_obs].append(obs[k_obs])
-            events += [Annotation(step=k, **e) for e in info["events"]]
+            for key in keys:
+                observations[key].append(obs[key])
+            events += [(k, e) for e in info["events"]]
             done = term or trunc
             if frames and (k % frame_every == 0 or done):
-                shots[k] = env.render()  # type: ignore[assignment]
+                shots[k] = env._render(depth=True)[:2]
         success = bool(info["success"])
+        final = info["value"]
+        space = {k: _spec(env, k) for k in keys}
+        size = env.image_size
     finally:
         env.close()
-    arrays: dict[str, np.ndarray] = {
-        "actions": np.stack(actions).astype(np.float32),
-        "reward": np.asarray(rewards, dtype=np.float32),
-        "progress": np.asarray(progress, dtype=np.float32),
-        "stage": np.asarray(stage_idx, dtype=np.int16),
-    }
-    for k_obs in OBS_KEYS:
-        arrays[f"obs_{k_obs}"] = np.stack(observations[k_obs]).astype(np.float32)
-    np.savez_compressed(out / "trajectory.npz", **arrays)  # type: ignore[arg-type]
+    arrays: dict[str, np.ndarray] = {"actions": np.stack(actions).astype(np.float32)}
+    for key in keys:
+        arrays[f"obs_{key}"] = np.stack(observations[key]).astype(np.float32)
     frame_spec = None
     if frames:
         (out / "frames").mkdir(exist_ok=True)
-        for k, img in shots.items():
-            (out / "frames" / f"{k:06d}.png").write_bytes(encode_png(img))
-        frame_spec = FrameSpec(height=image_size[0], width=image_size[1], steps=sorted(shots))
+        steps = sorted(shots)
+        for k in steps:
+            (out / "frames" / f"{k:06d}.png").write_bytes(encode_png(shots[k][0]))
+        depth = np.stack([shots[k][1] for k in steps])
+        arrays["frame_depth"] = np.clip(depth, 0.0, 10.0).astype(np.float32)  # as observed
+        frame_spec = FrameSpec(height=size[0], width=size[1], steps=steps, depth=True)
+    np.savez_compressed(out / "trajectory.npz", **arrays)  # type: ignore[arg-type]
     manifest = DemoManifest(
         family=params.family,
-        source=params.public(),
         control_hz=CONTROL_HZ,
-        physics_dt=PHYSICS_DT,
-        substeps=SUBSTEPS,
         num_steps=len(actions),
         success=success,
         action_spec=ArraySpec(shape=(5,), dtype="float32", low=-1.0, high=1.0,
-                              names=list(ACTION_NAMES)),
+                              names=list(ACTION_NAMES),
+                              description="dx, dy, dz, dyaw (scaled by action_scale), grip"),
         action_scale={"dx": DPOS_MAX, "dy": DPOS_MAX, "dz": DPOS_MAX, "dyaw": DYAW_MAX,
                       "grip": WIDTH_MAX},
-        observation_spec={k: _spec(env, k) for k in OBS_KEYS},
+        observation_spec=space,
         stage_names=names,
-        key_stages=_segments(stage_idx, names),
-        events=events,
+        key_stages=coarse_stages(stage_idx, names, BOUNDARY_RESOLUTION),
+        boundary_resolution=BOUNDARY_RESOLUTION,
+        events=[Annotation(step=k, event=e["event"], part=e["part"],
+                           value=float(final) if e["event"] in GOAL_EVENTS and final is not None
+                           else None)
+                for k, e in events],
         frames=frame_spec,
     )
     (out / "manifest.json").write_text(manifest.model_dump_json(indent=2) + "\n")
     return manifest
-
-

@@ -8,31 +8,42 @@ hand's control target by at most ``DPOS_MAX`` m / ``DYAW_MAX`` rad per step (kep
 checked first: a non-finite action is replaced by "hold still" (``info["invalid_action"]``),
 values outside [-1, 1] are clipped (``info["action_clipped"]``). NaN never reaches MuJoCo.
 
-Observation ``Dict``:
+The split (``split="dev"``, ``"standard"`` or ``"challenge"``, or an explicit ``config``)
+decides what the observation holds (see ``simhost.track2._config``):
 
-- ``proprio`` (7,): TCP x, y, z, yaw, finger opening, left / right finger contact (0/1).
-- ``parts`` (N, 9): per task-relevant part ``present, x, y, z, qw, qx, qy, qz, joint``
-  (``joint``: the hinge angle or slide position of an articulated part); family order in
-  each family's ``part_names``; rows past the instance's parts are zero.
+- ``proprio`` (7,): TCP x, y, z (m), yaw (rad), finger opening (m), left / right finger
+  contact (0/1). Exact.
+- ``parts`` (N, 10): per task-relevant part ``present, x, y, z, qw, qx, qy, qz, joint, age``
+  in the family's ``part_names`` order; rows past the instance's parts are zero. On the
+  official splits these are noisy, delayed, lower-rate measurements, stale while the gripper
+  hides the part, yaw modulo the part's symmetry, and ``joint`` is 0 (not observed); ``age``
+  is how old the state shown is (s). Absent when the split is RGB-D only.
 - ``force`` (6,): summed normal contact force on the left finger, right finger and palm (N),
-  then the net contact force on the gripper in the world frame (N).
-- ``goal`` (4,): ``[stated, g1, g2, g3]``; zeros when the task states no goal.
-- with ``render_rgbd=True``: ``rgb`` (H, W, 3) uint8 and ``depth`` (H, W, 1) float32 metres
-  from the ``overview`` camera (no shadows, no multisampling).
+  then the net contact force on the gripper in the world frame (N). Exact.
+- ``goal`` (4,): ``[stated, g1, g2, g3]`` (``dev`` only): the task's goal parameters.
+- ``rgb`` (H, W, 3) uint8, ``depth`` (H, W) float32 metres and, if configured,
+  ``segmentation`` (H, W) int32 (0 nothing, k the part of ``parts`` row k - 1, -1 the
+  gripper) from the ``overview`` camera (no shadows), rendered when parts are measured.
+
+``reset(seed=...)`` seeds everything random in an episode: the per-reset jitter of part and
+fixture poses (``attempt_jitter_*``) and the observation noise. The same instance and seed
+give the same episode, bit for bit.
 
 ``info``: ``progress`` [0, 1], ``success``, ``stage`` (true key stage or ``"done"``),
+``value`` (the magnitude the goal is about: fraction opened, angle turned, depth reached),
 ``contact_force`` (largest normal contact force on the gripper, N — a firm grasp alone is
-up to ``GRIP_FORCE`` = 20 N), ``push_force`` (norm of the net contact force on the gripper, N:
-what it pushes with, the squeeze cancelling out), ``sim_warnings`` (MuJoCo warnings raised in
-this step, plus ``"diverged"`` if the step had to be undone), ``events`` (state-change
-annotations of this step, including ``dropped``), ``invalid_action``, ``action_clipped``,
-``joint_limit`` (the hand at a range limit), ``step``.
+up to ``GRIP_FORCE`` = 20 N), ``push_force`` (norm of the net contact force on the gripper,
+N), ``sim_warnings`` (MuJoCo warnings raised in this step, plus ``"diverged"`` if the step
+had to be undone), ``events`` (state-change annotations of this step, including
+``dropped``), ``invalid_action``, ``action_clipped``, ``joint_limit`` (the hand at a range
+limit), ``step``.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import struct
 from typing import Any
 
@@ -48,28 +59,33 @@ from ._bench import (
     HOME,
     LEAD_POS,
     LEAD_YAW,
+    PART_FIELDS,
     SUBSTEPS,
     WIDTH_MAX,
     WORKSPACE_HI,
     WORKSPACE_LO,
     build_mjcf,
 )
+from ._config import BenchConfig, split_config
 from ._errors import InstanceParamsError, StateError
 from ._families import make_task
-from ._family import GOAL_SIZE, PART_FIELDS, Evaluation
+from ._family import GOAL_SIZE, Evaluation
+from ._observe import PartsChannel, quat_mul, quat_z
 from ._params import FAMILIES, InstanceParams, default_source, sample_instance
 from ._sim import Sim
 
-_STATE_MAGIC = b"EAGCT2S1"
+_STATE_MAGIC = b"EAGCT2S2"
 _STATE_SIG = mujoco.mjtState.mjSTATE_INTEGRATION
 _SETTLE_SUBSTEPS = 50
 DROP_SPEED = 0.3  # m/s: a loose part falling faster than this, untouched, was dropped
+JITTER_CLIP = 2.5  # per-reset offsets are clipped at this many standard deviations
 _WARNINGS = [n for n in mujoco.mjtWarning.__members__ if n != "mjNWARNING"]
 
 
-def instance_id(params: InstanceParams) -> str:
-    """A short fingerprint of an instance (sha256 of its JSON)."""
-    return hashlib.sha256(params.model_dump_json().encode()).hexdigest()[:16]
+def instance_id(params: InstanceParams, config: BenchConfig | None = None) -> str:
+    """A short fingerprint of an instance and its bench config (sha256 of their JSON)."""
+    text = params.model_dump_json() + (config.model_dump_json() if config else "")
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
@@ -77,10 +93,14 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     Args:
       params: the instance; if omitted, ``family`` with ``instance_seed`` (sampled around the
-        canonical source at ``difficulty``) or the canonical source itself.
+        canonical source with the split's variation) or the canonical source itself.
+      split: ``"dev"`` (default), ``"standard"`` or ``"challenge"``: the bench config and
+        the variation of sampled instances.
+      config: the bench config (overrides the split's).
+      difficulty: overrides the split's difficulty when sampling with ``instance_seed``.
       render_mode: ``None`` or ``"rgb_array"``.
-      render_rgbd: add ``rgb`` and ``depth`` to the observation.
-      image_size: ``(height, width)`` of rendered images.
+      render_rgbd: add (True) or drop (False) ``rgb`` and ``depth`` whatever the split says.
+      image_size: ``(height, width)`` of rendered images (default: the split's).
       max_steps: truncate after this many steps (default: the family's cap).
     """
 
@@ -92,46 +112,82 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         *,
         family: str | None = None,
         instance_seed: int | None = None,
-        difficulty: float = 0.5,
+        split: str = "dev",
+        config: BenchConfig | None = None,
+        difficulty: float | None = None,
         render_mode: str | None = None,
-        render_rgbd: bool = False,
-        image_size: tuple[int, int] = (120, 160),
+        render_rgbd: bool | None = None,
+        image_size: tuple[int, int] | None = None,
         max_steps: int | None = None,
     ) -> None:
+        preset = split_config(split)
         if params is None:
             if family is None:
                 raise InstanceParamsError(f"BenchEnv needs params or a family (one of {FAMILIES})")
             params = (
                 default_source(family)
                 if instance_seed is None
-                else sample_instance(family, instance_seed, difficulty=difficulty)
+                else sample_instance(family, instance_seed, difficulty=difficulty,
+                                     variation=preset.variation)
             )
         elif family is not None and family != params.family:
             raise InstanceParamsError(f"family {family!r} does not match params ({params.family})")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        config = config or preset.bench
+        obs_update: dict[str, Any] = {}
+        if render_rgbd is not None:
+            obs_update["rgbd"] = bool(render_rgbd)
+        if image_size is not None:
+            obs_update["image_size"] = (int(image_size[0]), int(image_size[1]))
+        if obs_update:
+            config = config.model_copy(
+                update={"observation": config.observation.model_copy(update=obs_update)})
+        if not config.observation.parts and not config.observation.rgbd:
+            raise InstanceParamsError("an observation without parts needs rgbd=True")
+        self.config = config
         self.render_mode = render_mode
-        self.render_rgbd = render_rgbd
-        self.image_size = (int(image_size[0]), int(image_size[1]))
         self._max_steps_arg = max_steps
         self._renderer: mujoco.Renderer | None = None
         self.episode = 0
         self._load(params)
 
+    @property
+    def render_rgbd(self) -> bool:
+        return self.config.observation.rgbd
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        return self.config.observation.image_size
+
     # -- building ------------------------------------------------------------------------------
     def _load(self, params: InstanceParams) -> None:
         self.params = params
-        self.task = make_task(params)
-        self.xml = build_mjcf(self.task.scene(), surface_friction=params.f("surface"))
+        self.task = make_task(params, self.config)
+        self.xml = build_mjcf(self.task.scene(), surface_friction=params.f("surface"),
+                              grip_slip=self.config.grip_slip)
         self.model = mujoco.MjModel.from_xml_string(self.xml)
         self.data = mujoco.MjData(self.model)
         self.sim = Sim(self.model, self.data)
         self.task.bind(self.sim)
+        self.channel = PartsChannel(self.task, self.config.observation)
         self.max_steps = self._max_steps_arg or self.task.max_steps
-        self._instance = instance_id(params)
+        self._instance = instance_id(params, self.config)
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+        m = self.model
+        self._groups = [tuple(int(m.body(n).id) for n in g) for g in self.task.jitter_groups()]
+        self._nominal = {b: (m.body_pos[b].copy(), m.body_quat[b].copy())
+                         for g in self._groups for b in g}
+        self._offsets = np.zeros((len(self._groups), 3))
+        refs = self.task.row_refs()
+        self._seg_rows = {int(g): i + 1 for i, ref in enumerate(refs)
+                          if ref and ref[0] == "body"
+                          for g in np.nonzero(m.geom_bodyid == ref[1])[0]}
+        hand = {int(m.body(b).id) for b in ("hand", "finger_l", "finger_r")}
+        self._seg_rows.update({int(g): -1 for g in range(m.ngeom) if m.geom_bodyid[g] in hand})
+        cfg = self.config.observation
         n = len(self.task.part_names)
         obs: dict[str, spaces.Space[Any]] = {
             "proprio": spaces.Box(
@@ -139,18 +195,22 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 np.array([*WORKSPACE_HI, WIDTH_MAX + 0.01, 1.0, 1.0], dtype=np.float32),
                 dtype=np.float32,
             ),
-            "parts": spaces.Box(-4.0, 4.0, (n, len(PART_FIELDS)), np.float32),
-            "force": spaces.Box(
-                np.array([0, 0, 0, -500, -500, -500], dtype=np.float32),
-                np.full(6, 500.0, dtype=np.float32),
-                dtype=np.float32,
-            ),
-            "goal": spaces.Box(-10.0, 10.0, (GOAL_SIZE,), np.float32),
         }
-        if self.render_rgbd:
-            h, w = self.image_size
+        if cfg.parts:
+            obs["parts"] = spaces.Box(-4.0, 4.0, (n, len(PART_FIELDS)), np.float32)
+        obs["force"] = spaces.Box(
+            np.array([0, 0, 0, -500, -500, -500], dtype=np.float32),
+            np.full(6, 500.0, dtype=np.float32),
+            dtype=np.float32,
+        )
+        if cfg.goal_vector:
+            obs["goal"] = spaces.Box(-10.0, 10.0, (GOAL_SIZE,), np.float32)
+        if cfg.rgbd:
+            h, w = cfg.image_size
             obs["rgb"] = spaces.Box(0, 255, (h, w, 3), np.uint8)
-            obs["depth"] = spaces.Box(0.0, 10.0, (h, w, 1), np.float32)
+            obs["depth"] = spaces.Box(0.0, 10.0, (h, w), np.float32)
+            if cfg.segmentation:
+                obs["segmentation"] = spaces.Box(-1, n, (h, w), np.int32)
         self.observation_space = spaces.Dict(obs)
         self.action_space = spaces.Box(-1.0, 1.0, (5,), np.float32)
         self._target = HOME.copy()
@@ -159,6 +219,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._warn = np.zeros(len(_WARNINGS), dtype=np.int64)
         self._flags: dict[str, bool] = {}
         self._progress = 0.0
+        self._images: dict[str, np.ndarray] = {}
 
     @property
     def control_target(self) -> np.ndarray:
@@ -173,10 +234,12 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Put the instance back in its initial state.
+        """Put the instance back in its initial state (jittered as the config says).
 
-        ``options={"params": InstanceParams}`` switches to another instance first. The
-        initial state depends on the instance only; ``seed`` seeds ``self.np_random``.
+        ``options={"params": InstanceParams}`` switches to another instance first. ``seed``
+        seeds ``self.np_random``, which draws this reset's jitter and the observation noise.
+        The parts' measurement biases come from ``options["bias_seed"]`` when given (an
+        episode keeps its biases over its attempts), else from ``self.np_random``.
         """
         super().reset(seed=seed)
         if options and options.get("params") is not None:
@@ -190,11 +253,18 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 )
             self._load(new)
         m, d = self.model, self.data
+        rng = self.np_random
+        raw = rng.normal(0.0, 1.0, (len(self._groups), 3))
+        joint_jitter = float(np.clip(rng.normal(0.0, 1.0), -JITTER_CLIP, JITTER_CLIP))
+        scale = np.array([self.config.attempt_jitter_m, self.config.attempt_jitter_m,
+                          self.config.attempt_jitter_rad])
+        self._offsets = np.clip(raw, -JITTER_CLIP, JITTER_CLIP) * scale + 0.0  # no -0.0
         mujoco.mj_resetData(m, d)
+        self._apply_offsets()
         self._target = HOME.copy()
         self._width = WIDTH_MAX * 0.9
         self._set_hand_qpos()
-        self.task.reset(self.sim)
+        self.task.reset(self.sim, joint_jitter)
         self._write_ctrl(self._target, self._width)
         mujoco.mj_forward(m, d)
         for _ in range(_SETTLE_SUBSTEPS):
@@ -204,6 +274,11 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.episode += 1
         self._warn = np.array([d.warning[i].number for i in range(len(_WARNINGS))])
         self.sim.refresh()
+        bias_seed = (options or {}).get("bias_seed")
+        self.channel.reset(rng, None if bias_seed is None else np.random.default_rng(bias_seed))
+        self._images = {}
+        if self.render_rgbd:
+            self._images = self._render_obs()
         ev = self._evaluate()
         self._flags = dict(ev.flags)
         self._progress = self.task.progress(ev)
@@ -241,6 +316,8 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         warnings += [_WARNINGS[i] for i in np.nonzero(counts > self._warn)[0]]
         self._warn = counts
         self.sim.refresh()
+        if self.channel.after_step(self.np_random) and self.render_rgbd:
+            self._images = self._render_obs()
         ev = self._evaluate()
         events = self._edges(ev.flags)
         progress = self.task.progress(ev)
@@ -263,7 +340,8 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     # -- state ---------------------------------------------------------------------------------
     def get_state(self) -> bytes:
-        """Everything needed to continue bit-exactly: physics, control target, step count."""
+        """Everything needed to continue the physics bit-exactly: the physics, the fixtures'
+        jitter, the control target and the step count (not the observation channel)."""
         st = np.empty(mujoco.mj_stateSize(self.model, _STATE_SIG))
         mujoco.mj_getState(self.model, self.data, st, _STATE_SIG)
         head = json.dumps(
@@ -273,6 +351,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 "target": [float(x).hex() for x in self._target],
                 "width": float(self._width).hex(),
                 "warnings": [int(x) for x in self._warn],
+                "offsets": [float(x).hex() for x in self._offsets.ravel()],
             },
             sort_keys=True,
         ).encode()
@@ -281,7 +360,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def set_state(self, state: bytes) -> None:
         """Restore a state from :meth:`get_state` of this same instance."""
         if not isinstance(state, bytes | bytearray) or not state.startswith(_STATE_MAGIC):
-            raise StateError("not a bench state (missing the EAGCT2S1 header)")
+            raise StateError("not a bench state (missing the EAGCT2S2 header)")
         try:
             (n,) = struct.unpack_from("<I", state, len(_STATE_MAGIC))
             start = len(_STATE_MAGIC) + 4
@@ -290,14 +369,18 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             target = np.array([float.fromhex(x) for x in head["target"]])
             width = float.fromhex(head["width"])
             steps, warn = int(head["steps"]), np.array(head["warnings"], dtype=np.int64)
+            offsets = np.array([float.fromhex(x) for x in head["offsets"]]).reshape(-1, 3)
         except (struct.error, ValueError, KeyError, TypeError) as exc:
             raise StateError(f"corrupt bench state: {exc}") from exc
         if head["instance"] != self._instance:
             raise StateError(
                 f"state belongs to instance {head['instance']}, this env is {self._instance}"
             )
-        if arr.size != mujoco.mj_stateSize(self.model, _STATE_SIG) or target.shape != (4,):
+        if (arr.size != mujoco.mj_stateSize(self.model, _STATE_SIG) or target.shape != (4,)
+                or offsets.shape != self._offsets.shape):
             raise StateError("state size does not match this model")
+        self._offsets = offsets
+        self._apply_offsets(static_only=True)
         mujoco.mj_setState(self.model, self.data, arr, _STATE_SIG)
         mujoco.mj_forward(self.model, self.data)
         self._target, self._width, self._steps, self._warn = target, width, steps, warn
@@ -316,6 +399,28 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return ev, self.task.progress(ev)
 
     # -- internals -----------------------------------------------------------------------------
+    def _apply_offsets(self, static_only: bool = False) -> None:
+        """Move each jitter group by its offset, about its first body's nominal position."""
+        m, d = self.model, self.data
+        for group, (dx, dy, dyaw) in zip(self._groups, self._offsets, strict=True):
+            pivot = self._nominal[group[0]][0][:2]
+            c, s = math.cos(dyaw), math.sin(dyaw)
+            turn = quat_z(float(dyaw))
+            for b in group:
+                pos, quat = self._nominal[b]
+                rel = pos[:2] - pivot
+                xy = pivot + np.array([c * rel[0] - s * rel[1], s * rel[0] + c * rel[1]])
+                xy = xy + (dx, dy)
+                j = int(m.body_jntadr[b])
+                if j >= 0 and m.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+                    if not static_only:
+                        a = int(m.jnt_qposadr[j])
+                        d.qpos[a : a + 2] = xy
+                        d.qpos[a + 3 : a + 7] = quat_mul(turn, quat)
+                    continue
+                m.body_pos[b] = (xy[0], xy[1], pos[2])
+                m.body_quat[b] = quat_mul(turn, quat)
+
     def _evaluate(self) -> Evaluation:
         """The task's evaluation plus ``dropped:<part>`` for loose parts falling freely."""
         ev = self.task.evaluate()
@@ -362,22 +467,28 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     def _obs(self) -> dict[str, np.ndarray]:
         s = self.sim
-        prop = np.array([*s.ee(), s.width(), float(bool(s.left_touch)), float(bool(s.right_touch))])
         space = self.observation_space.spaces
-        obs = {
-            "proprio": np.clip(prop, space["proprio"].low, space["proprio"].high),
-            "parts": np.clip(self.task.parts(), -4.0, 4.0),
-            "force": np.clip(s.force, space["force"].low, space["force"].high),
-            "goal": np.clip(self.task.goal(), -10.0, 10.0),
-        }
-        out = {k: v.astype(np.float32) for k, v in obs.items()}
-        if self.render_rgbd:
-            rgb, depth = self._render(depth=True)
-            out["rgb"] = rgb
-            out["depth"] = np.clip(depth, 0.0, 10.0).astype(np.float32)[..., None]
+        prop = np.array([*s.ee(), s.width(), float(bool(s.left_touch)), float(bool(s.right_touch))])
+        out = {"proprio": np.clip(prop, space["proprio"].low, space["proprio"].high)}
+        if "parts" in space:
+            out["parts"] = np.clip(self.channel.rows, -4.0, 4.0)
+        out["force"] = np.clip(s.force, space["force"].low, space["force"].high)
+        if "goal" in space:
+            out["goal"] = np.clip(self.task.goal(), -10.0, 10.0)
+        obs = {k: v.astype(np.float32) for k, v in out.items()}
+        obs.update({k: v.copy() for k, v in self._images.items()})
+        return obs
+
+    def _render_obs(self) -> dict[str, np.ndarray]:
+        seg_on = self.config.observation.segmentation
+        rgb, depth, seg = self._render(depth=True, segmentation=seg_on)
+        out = {"rgb": rgb, "depth": np.clip(depth, 0.0, 10.0).astype(np.float32)}
+        if self.config.observation.segmentation:
+            out["segmentation"] = seg
         return out
 
-    def _render(self, depth: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    def _render(self, depth: bool = False, segmentation: bool = False
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if self._renderer is None:
             h, w = self.image_size
             self._renderer = mujoco.Renderer(self.model, h, w)
@@ -388,12 +499,25 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         r.update_scene(self.data, camera="overview")
         rgb = r.render().copy()
         dep = np.zeros(0, dtype=np.float32)
+        seg = np.zeros(0, dtype=np.int32)
         if depth:
             r.enable_depth_rendering()
             r.update_scene(self.data, camera="overview")
             dep = r.render().copy()
             r.disable_depth_rendering()
-        return rgb, dep
+        if segmentation:
+            r.enable_segmentation_rendering()
+            r.update_scene(self.data, camera="overview")
+            raw = r.render()
+            r.disable_segmentation_rendering()
+            ids, types = raw[..., 0], raw[..., 1]
+            lut = np.zeros(self.model.ngeom + 1, dtype=np.int32)
+            for g, row in self._seg_rows.items():
+                lut[g] = row
+            geom = types == int(mujoco.mjtObj.mjOBJ_GEOM)
+            seg = np.where(geom & (ids >= 0), lut[np.clip(ids, 0, self.model.ngeom)], 0)
+            seg = seg.astype(np.int32)
+        return rgb, dep, seg
 
     def _info(
         self,
@@ -407,6 +531,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             "progress": float(self._progress),
             "success": bool(ev.success),
             "stage": "done" if ev.success else ev.stage,
+            "value": ev.value,
             "contact_force": float(self.sim.max_hand_force),
             "push_force": float(np.linalg.norm(self.sim.force[3:])),
             "sim_warnings": warnings,
@@ -416,19 +541,3 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             "joint_limit": self.sim.hand_at_limit(),
             "step": self._steps,
         }
-
-
-def register_envs() -> list[str]:
-    """Register ``eagc/Bench-<Family>-v0`` for every family; returns the ids (idempotent)."""
-    ids = []
-    for fam in FAMILIES:
-        env_id = f"eagc/Bench-{fam.title().replace('_', '')}-v0"
-        if env_id not in gym.registry:
-            gym.register(
-                id=env_id,
-                entry_point="simhost.track2._env:BenchEnv",
-                kwargs={"family": fam},
-                disable_env_checker=False,
-            )
-        ids.append(env_id)
-    return ids

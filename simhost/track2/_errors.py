@@ -19,3 +19,7 @@ class StateError(Track2Error, ValueError):
 
 class DemoPacketError(Track2Error, ValueError):
     """Raised when a demonstration packet folder is missing, malformed or inconsistent."""
+
+
+class SplitConfigError(Track2Error, ValueError):
+    """Raised when a split name is not one of the presets (``dev``, ``standard``, ``challenge``)."""

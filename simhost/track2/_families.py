@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from . import _assembly, _insertion, _opening, _rotation, _tool_use
+from ._config import BenchConfig
 from ._family import FamilyTask
 from ._params import InstanceParams
 
@@ -15,6 +16,11 @@ TASKS: dict[str, type[FamilyTask]] = {
 }
 
 
-def make_task(params: InstanceParams) -> FamilyTask:
-    """The family task object for ``params`` (not yet bound to a simulation)."""
-    return TASKS[params.family](params)
+def make_task(params: InstanceParams, config: BenchConfig | None = None) -> FamilyTask:
+    """The family task object for ``params`` under ``config`` (not yet bound to a simulation)."""
+    return TASKS[params.family](params, config)
+
+
+def family_step_cap(family: str) -> int:
+    """The step cap of one attempt of ``family`` (its expert needs well under it)."""
+    return TASKS[family].max_steps

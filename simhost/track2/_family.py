@@ -1,9 +1,12 @@
 """What a task family provides, and the motion primitives its scripted expert is built from.
 
-A family turns :class:`InstanceParams` into MJCF bodies, reads the simulation into the
-observation's ``parts`` rows and ``goal`` vector, classifies the true key stage, and states
-the ground truth of the instance. Its expert is a generator of actions that reads privileged
-state (exact part poses, the hand's control target) through the environment it drives.
+A family turns :class:`InstanceParams` (and the split's :class:`BenchConfig`) into MJCF
+bodies, reads the simulation into the observation's ``parts`` rows (true poses: the
+observation channel adds the noise) and the ``goal`` vector, classifies the true key stage,
+and states the ground truth of the instance (:class:`TaskTruth`). Its expert is a generator
+of actions that reads part poses through an :class:`Eye`: the true state (the privileged
+oracle, the demonstrations) or the observations (the feasibility check, which sees what an
+agent sees). Both know the instance's parameters.
 
 Ground-truth vocabulary shared by all families (``task_truth``):
 
@@ -13,7 +16,8 @@ Ground-truth vocabulary shared by all families (``task_truth``):
 - ``constraints``: ``{"name", "value"}`` — geometric or physical facts of the instance.
 - ``preconditions``: ``{stage: [predicate, ...]}`` — what must hold to enter the stage.
 - ``success``: ``[{"variable", "op", "value"}]`` with op in ``>= | <= | == | within``; all of
-  them must hold at once.
+  them must hold at once. Goals are stated relative to the start of the attempt where the
+  demonstration defines them (a turn, not an absolute angle).
 """
 
 from __future__ import annotations
@@ -22,22 +26,42 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
-from ._bench import DPOS_MAX, DYAW_MAX, WIDTH_MAX, WORKSPACE_HI, WORKSPACE_LO, Scene, wrap
+from ._bench import (
+    DPOS_MAX,
+    DYAW_MAX,
+    WIDTH_MAX,
+    WORKSPACE_HI,
+    WORKSPACE_LO,
+    Scene,
+    wrap,
+)
+from ._config import BenchConfig
 from ._params import InstanceParams
+from ._truth import TaskTruth, TruthConstraint, TruthCriterion, TruthVariable
 
 if TYPE_CHECKING:
     from ._env import BenchEnv
     from ._sim import Sim
 
-PART_FIELDS = ("present", "x", "y", "z", "qw", "qx", "qy", "qz", "joint")
 GOAL_NAMES = ("stated", "g1", "g2", "g3")
 GOAL_SIZE = len(GOAL_NAMES)
 Action = np.ndarray
 Plan = Iterator[Action]
+
+
+class Eye(Protocol):
+    """Where the expert reads part poses: the true state or an estimate from observations."""
+
+    def pos(self, body: int) -> np.ndarray: ...
+    def quat(self, body: int) -> np.ndarray: ...
+    def yaw(self, body: int) -> float: ...
+    def point(self, body: int, local: tuple[float, float, float]) -> np.ndarray: ...
+    def tilt(self, body: int) -> float: ...
+    def site(self, site: int) -> np.ndarray: ...
 
 
 @dataclass
@@ -50,6 +74,8 @@ class Evaluation:
     flags: dict[str, bool] = field(default_factory=dict)
     """Predicates named ``"<event>:<part>"``; a rising edge is an annotation ``event``, and the
     falling edge of ``grasped:<part>`` is ``released``."""
+    value: float | None = None
+    """The magnitude the goal is about (fraction opened, angle turned, depth), if any."""
 
 
 class FamilyTask(ABC):
@@ -59,9 +85,12 @@ class FamilyTask(ABC):
     part_names: ClassVar[tuple[str, ...]]
     max_steps: ClassVar[int]
 
-    def __init__(self, params: InstanceParams) -> None:
+    def __init__(self, params: InstanceParams, config: BenchConfig | None = None) -> None:
         self.p = params
+        self.config = config or BenchConfig()
+        self.tol = self.config.tolerances
         self.sim: Sim | None = None
+        self.eye: Eye | None = None
 
     # -- building ------------------------------------------------------------------------------
     @abstractmethod
@@ -72,14 +101,27 @@ class FamilyTask(ABC):
         """Resolve names to ids once the model is compiled."""
         self.sim = sim
 
-    def reset(self, sim: Sim) -> None:
-        """Set the initial joint values of articulated parts (before ``mj_forward``)."""
+    def reset(self, sim: Sim, jitter: float) -> None:
+        """Set the initial joint values of articulated parts (before ``mj_forward``).
+
+        ``jitter`` is a standard normal draw for this reset; a family with an articulated
+        part offsets its start by ``jitter * attempt_jitter_rad`` (or a matching fraction).
+        """
         return None
+
+    def jitter_groups(self) -> tuple[tuple[str, ...], ...]:
+        """Bodies moved together by the per-reset jitter (each group one offset)."""
+        return tuple((name,) for name in self.part_names)
 
     @property
     def s(self) -> Sim:
         assert self.sim is not None, "task is not bound to a simulation"
         return self.sim
+
+    @property
+    def e(self) -> Eye:
+        """The expert's eye (the true state unless an observed eye was attached)."""
+        return self.eye if self.eye is not None else self.s
 
     # -- reading -------------------------------------------------------------------------------
     @abstractmethod
@@ -88,10 +130,38 @@ class FamilyTask(ABC):
 
     @abstractmethod
     def parts(self) -> np.ndarray:
-        """``(len(part_names), len(PART_FIELDS))`` rows; padding rows are zero."""
+        """``(len(part_names), 9)`` true rows ``present, x..qz, joint``; padding rows are zero."""
+
+    def row_refs(self) -> tuple[tuple[str, int] | None, ...]:
+        """What each ``parts`` row shows: ``("body", id)``, ``("site", id)`` or ``None``."""
+        return tuple(("body", self.s.bid(n)) for n in self.part_names)
+
+    def symmetry(self) -> tuple[float, ...]:
+        """Per ``parts`` row, the yaw period under which the part looks the same (rad)."""
+        return (2 * math.pi,) * len(self.part_names)
+
+    def yaw_priors(self) -> dict[int, float]:
+        """Per ``parts`` row, the nominal yaw the instance's parameters give (rad): the
+        feasibility expert unwraps a symmetric part's first measurement near it."""
+        return {}
+
+    def row_links(self) -> dict[int, int]:
+        """Rows rigidly attached to another row (a tool's tip to its handle)."""
+        return {}
+
+    def held_rows(self) -> set[int]:
+        """Rows of parts the gripper can carry or drive (loose or articulated parts)."""
+        loose = set(self.loose_parts().values())
+        return {i for i, ref in enumerate(self.row_refs())
+                if ref is not None and ref[0] == "body" and ref[1] in loose}
+
+    def row_reach(self) -> dict[int, float]:
+        """Rows whose frame lies farther than 5 cm from where the gripper holds them: how far
+        (m). The feasibility expert takes such a part as held within that distance."""
+        return {}
 
     def goal(self) -> np.ndarray:
-        """``[stated, g1, g2, g3]``: public goal parameters, zeros when the task states none."""
+        """``[stated, g1, g2, g3]``: the goal parameters, zeros when the task states none."""
         return np.zeros(GOAL_SIZE)
 
     @abstractmethod
@@ -111,12 +181,12 @@ class FamilyTask(ABC):
         return float(min(0.999, (k + min(max(ev.frac, 0.0), 0.999)) / len(st)))
 
     @abstractmethod
-    def truth(self) -> dict[str, Any]:
+    def truth(self) -> TaskTruth:
         """Stages, state variables, constraints, preconditions and success criteria."""
 
     @abstractmethod
     def plan(self, env: BenchEnv) -> Plan:
-        """The scripted expert: yields one action per step, reading privileged state."""
+        """The scripted expert: yields one action per step, reading poses through ``self.e``."""
 
     # -- helpers -------------------------------------------------------------------------------
     def row(self, body: int, joint: float = 0.0) -> np.ndarray:
@@ -124,7 +194,7 @@ class FamilyTask(ABC):
         return np.array([1.0, *s.pos(body), *s.quat(body), joint])
 
     def pad(self, rows: list[np.ndarray]) -> np.ndarray:
-        out = np.zeros((len(self.part_names), len(PART_FIELDS)))
+        out = np.zeros((len(self.part_names), 9))
         for i, r in enumerate(rows):
             out[i] = r
         return out
@@ -132,30 +202,30 @@ class FamilyTask(ABC):
 
 def truth_doc(
     task: FamilyTask,
-    variables: list[dict[str, Any]],
+    variables: list[TruthVariable],
     constraints: dict[str, Any],
     preconditions: dict[str, list[str]],
-    success: list[dict[str, Any]],
-) -> dict[str, Any]:
-    """Assemble the ground-truth document in its fixed shape."""
-    return {
-        "version": "eagc-truth/v1",
-        "family": task.family,
-        "stages": list(task.stages()),
-        "state_variables": variables,
-        "constraints": [{"name": k, "value": v} for k, v in constraints.items()],
-        "preconditions": preconditions,
-        "success": success,
-        "goal": dict(task.p.goal),
-    }
+    success: list[TruthCriterion],
+    goal: dict[str, Any] | None = None,
+) -> TaskTruth:
+    """Assemble the ground truth in its fixed shape."""
+    return TaskTruth(
+        family=task.family,  # type: ignore[arg-type]
+        stages=tuple(task.stages()),
+        state_variables=tuple(variables),
+        constraints=tuple(TruthConstraint(name=k, value=v) for k, v in constraints.items()),
+        preconditions={k: tuple(v) for k, v in preconditions.items()},
+        success=tuple(success),
+        goal=dict(goal or {}),
+    )
 
 
-def var(name: str, kind: str, part: str | None = None) -> dict[str, Any]:
-    return {"name": name, "type": kind, **({"part": part} if part else {})}
+def var(name: str, kind: str, part: str | None = None) -> TruthVariable:
+    return TruthVariable(name=name, type=kind, part=part)  # type: ignore[arg-type]
 
 
-def crit(variable: str, op: str, value: Any) -> dict[str, Any]:
-    return {"variable": variable, "op": op, "value": value}
+def crit(variable: str, op: str, value: Any) -> TruthCriterion:
+    return TruthCriterion(variable=variable, op=op, value=value)  # type: ignore[arg-type]
 
 
 # -- motion primitives -------------------------------------------------------------------------
@@ -245,7 +315,11 @@ def hold(env: BenchEnv, steps: int, width: float) -> Plan:
 
 
 def grip(env: BenchEnv, width: float = 0.0, steps: int = 6) -> Plan:
-    """Close (or open) the fingers and wait for them to settle."""
+    """Close the fingers (or open them gently, 6 mm per step) and wait for them to settle."""
+    now = env.sim.width()
+    if width > now + 0.006:
+        for w in np.arange(now + 0.006, width, 0.006):
+            yield action(np.zeros(3), 0.0, float(w))
     yield from hold(env, steps, width)
 
 
@@ -256,30 +330,64 @@ def idle(env: BenchEnv, width: float | None = None) -> Plan:
         yield action(np.zeros(3), 0.0, w)
 
 
-def radial(n: int, r: float, t: float, height: float, z0: float = 0.0) -> list[str]:
-    """``n`` wall boxes of thickness ``t`` around a regular n-gon of inradius ``r``."""
-    half_len = (r + t) * math.tan(math.pi / n) + 0.001
-    out = []
-    for k in range(n):
-        ang = 2 * math.pi * k / n
-        cx, cy = (r + t / 2) * math.cos(ang), (r + t / 2) * math.sin(ang)
+CHAMFER_T = 0.003  # thickness of a chamfer plate (m)
+
+
+def _wall(ang: float, inner: float, t: float, half_len: float, height: float, z0: float,
+          chamfer: float) -> list[str]:
+    """One straight wall whose inner face lies ``inner`` from the centre, in direction
+    ``ang``; with ``chamfer`` > 0 its top inner edge is a 45-degree slope ``chamfer`` wide
+    that guides a part sliding in."""
+    c, s = math.cos(ang), math.sin(ang)
+    straight = height - chamfer
+    cx, cz = inner + t / 2, z0 + straight / 2
+    out = [
+        f'<geom class="fixture" type="box" pos="{cx * c:.5f} {cx * s:.5f} {cz:.5f}" '
+        f'size="{t / 2:.5f} {half_len:.5f} {straight / 2:.5f}" euler="0 0 {ang:.6f}"/>'
+    ]
+    if chamfer > 0:
+        off = CHAMFER_T / (2 * math.sqrt(2))
+        px, pz = inner + chamfer / 2 + off, z0 + height - chamfer / 2 - off
+        qz = (math.cos(ang / 2), 0.0, 0.0, math.sin(ang / 2))
+        qy = (math.cos(-math.pi / 8), 0.0, math.sin(-math.pi / 8), 0.0)
+        w1, x1, y1, z1 = qz
+        w2, x2, y2, z2 = qy
+        q = (w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+             w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2)
         out.append(
-            f'<geom class="fixture" type="box" pos="{cx:.5f} {cy:.5f} {z0 + height / 2:.5f}" '
-            f'size="{t / 2:.5f} {half_len:.5f} {height / 2:.5f}" '
-            f'euler="0 0 {ang:.6f}"/>'
+            f'<geom class="fixture" type="box" pos="{px * c:.5f} {px * s:.5f} {pz:.5f}" '
+            f'size="{chamfer * math.sqrt(2) / 2:.5f} {half_len:.5f} {CHAMFER_T / 2:.5f}" '
+            f'quat="{q[0]:.6f} {q[1]:.6f} {q[2]:.6f} {q[3]:.6f}"/>'
         )
     return out
 
 
-def box_walls(ia: float, ib: float, t: float, height: float, z0: float = 0.0) -> list[str]:
+def radial(n: int, r: float, t: float, height: float, z0: float = 0.0,
+           chamfer: float = 0.0) -> list[str]:
+    """``n`` wall boxes of thickness ``t`` around a regular n-gon of inradius ``r``."""
+    half_len = (r + t) * math.tan(math.pi / n) + 0.001
+    out: list[str] = []
+    for k in range(n):
+        out += _wall(2 * math.pi * k / n, r, t, half_len, height, z0, chamfer)
+    return out
+
+
+def box_walls(ia: float, ib: float, t: float, height: float, z0: float = 0.0,
+              chamfer: float = 0.0) -> list[str]:
     """Four wall boxes around a rectangle of inner half-sizes ``ia`` x ``ib``."""
-    zc, hz = z0 + height / 2, height / 2
-    return [
-        f'<geom class="fixture" type="box" pos="{sx * (ia + t / 2):.5f} 0 {zc:.5f}" '
-        f'size="{t / 2:.5f} {ib + t:.5f} {hz:.5f}"/>'
-        for sx in (-1, 1)
-    ] + [
-        f'<geom class="fixture" type="box" pos="0 {sy * (ib + t / 2):.5f} {zc:.5f}" '
-        f'size="{ia:.5f} {t / 2:.5f} {hz:.5f}"/>'
-        for sy in (-1, 1)
-    ]
+    out: list[str] = []
+    for ang, inner, half in ((0.0, ia, ib + t), (math.pi, ia, ib + t),
+                             (math.pi / 2, ib, ia), (-math.pi / 2, ib, ia)):
+        out += _wall(ang, inner, t, half, height, z0, chamfer)
+    return out
+
+
+def spiral(spacing: float, rings: int) -> list[np.ndarray]:
+    """Search offsets on rings of radius ``spacing``, ``2 spacing``, ... (6 k points on ring
+    k), nearest first."""
+    out = []
+    for k in range(1, rings + 1):
+        for j in range(6 * k):
+            a = 2 * math.pi * j / (6 * k) + 0.5 * k
+            out.append(k * spacing * np.array([math.cos(a), math.sin(a)]))
+    return out

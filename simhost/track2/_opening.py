@@ -4,16 +4,21 @@ Parts rows: ``mover`` (the drawer, cover or lid; its ``joint`` is the slide posi
 the swivel angle in rad) and ``housing`` (the fixed cabinet). The mechanism's frame sits at
 ``(x, y)`` turned by ``yaw``; its front faces -x. A drawer slides out along the frame's -x and
 has a bar handle on standoffs; a cover slides along +y with a knob on top; a lid swivels about
-a vertical pin at one corner with a knob at the opposite corner. Joints have damping and dry
-friction, so a mechanism stays where it is left (a lid's damping and dry friction are the
-table's values times ``LID_LEVER`` = 0.1 m, i.e. the same force felt at its knob).
+a vertical pin at one corner with a knob at the opposite corner. A ``mirror``-ed cover slides
+along -y, a mirrored lid is hinged at the other corner and swings clockwise. Joints have
+damping and dry friction, so a mechanism stays where it is left (a lid's damping and dry
+friction are the table's values times ``LID_LEVER`` = 0.1 m, i.e. the same force felt at its
+knob).
 
-Opening fraction = joint / range. ``mode == "open"``: starts at 0, goal ``goal_frac``;
-``mode == "close"``: starts at ``goal_frac``, goal 0.
+Opening fraction = joint / range. ``mode == "open"``: starts at ``start_frac`` (jittered per
+attempt), goal ``goal_frac``; ``mode == "close"``: starts at ``1 - start_frac``, goal
+``1 - goal_frac``. The goal is the demonstration's fraction; the range differs between
+instances, so the same fraction is a different joint value.
 Stages: ``reach -> grasp -> open|close -> release``.
-Success: fraction within ``TOLERANCE`` of the goal and the gripper off the mover.
-Events: ``grasped``/``released``, ``opened`` or ``closed`` (part = the kind: drawer, cover,
-lid). Goal vector: ``[1, goal fraction, tolerance, +1 open / -1 close]``.
+Success: fraction within ``tolerances.opening_frac`` of the goal and the gripper off the
+mover. Events: ``grasped``/``released``, ``opened`` or ``closed`` (part = the kind: drawer,
+cover, lid). Goal vector (dev): ``[1, goal fraction, tolerance, +1 open / -1 close]``.
+``info["value"]``: the opening fraction.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._bench import WIDTH_MAX, Scene, quat_z, rot2, wrap
+from ._bench import WIDTH_MAX, Scene, quat_z, rot2, wrap, yaw_of
 from ._family import (
     Evaluation,
     FamilyTask,
@@ -37,12 +42,13 @@ from ._family import (
     truth_doc,
     var,
 )
+from ._truth import TaskTruth
 
 if TYPE_CHECKING:
     from ._env import BenchEnv
     from ._sim import Sim
 
-TOLERANCE = 0.08
+START_JITTER = 0.5  # start fraction jitter per radian of attempt_jitter_rad
 HANDLE_Z = 0.06  # drawer bar height
 BAR_X = -0.045  # drawer bar centre in front of the panel (panel front at -0.008)
 LID_PIVOT = (0.05, 0.05)
@@ -56,18 +62,18 @@ class OpeningTask(FamilyTask):
     part_names = ("mover", "housing")
     max_steps = 250
 
-    def __init__(self, params: Any) -> None:
-        super().__init__(params)
+    def __init__(self, params: Any, config: Any = None) -> None:
+        super().__init__(params, config)
         p = params
         self.kind = str(p.value("kind"))
         self.part = PART[self.kind]
         self.range = p.f("swing") if self.kind == "swivel_lid" else p.f("travel")
         self.k = p.f("handle_scale")
-        self.origin = np.array([p.f("x"), p.f("y")])
-        self.yaw = p.f("yaw")
         self.open_mode = p.value("mode") == "open"
-        frac = p.f("goal_frac")
-        self.start, self.goal_frac = (0.0, frac) if self.open_mode else (frac, 0.0)
+        self.sy = -1.0 if p.value("mirror") and self.kind != "drawer" else 1.0
+        start, goal = p.f("start_frac"), p.f("goal_frac")
+        self.start, self.goal_frac = (start, goal) if self.open_mode else (1 - start, 1 - goal)
+        self.tolerance = self.tol.opening_frac
         self.knob_h = 0.012
 
     def scene(self) -> Scene:
@@ -104,25 +110,26 @@ class OpeningTask(FamilyTask):
             child = f'<body name="mover" pos="0 0 0">{inner}</body>'
         else:
             housing = '<geom class="fixture" type="box" pos="0 0 0.025" size="0.06 0.06 0.025"/>'
+            sy = self.sy
             if self.kind == "sliding_cover":
                 inner = (
-                    f'<joint name="mover" type="slide" axis="0 1 0" {joint}/>'
+                    f'<joint name="mover" type="slide" axis="0 {sy:g} 0" {joint}/>'
                     + plate.format(x=0, y=0)
-                    + knob.format(x=0, y=-0.03)
+                    + knob.format(x=0, y=-0.03 * sy)
                 )
                 child = f'<body name="mover" pos="0 0 0.05">{inner}</body>'
             else:
-                px, py = LID_PIVOT
+                px, py = LID_PIVOT[0], LID_PIVOT[1] * sy
                 inner = (
-                    f'<joint name="mover" type="hinge" axis="0 0 1" {joint}/>'
+                    f'<joint name="mover" type="hinge" axis="0 0 {sy:g}" {joint}/>'
                     + plate.format(x=-px, y=-py)
-                    + knob.format(x=LID_KNOB[0], y=LID_KNOB[1])
+                    + knob.format(x=LID_KNOB[0], y=LID_KNOB[1] * sy)
                 )
                 child = f'<body name="mover" pos="{px} {py} 0.05">{inner}</body>'
         return Scene(
             bodies=f"""
-    <body name="housing" pos="{self.origin[0]:.5f} {self.origin[1]:.5f} 0"
-      quat="{quat_z(self.yaw)}">{housing}{child}</body>""",
+    <body name="housing" pos="{p.f('x'):.5f} {p.f('y'):.5f} 0"
+      quat="{quat_z(p.f('yaw'))}">{housing}{child}</body>""",
             contact='<exclude body1="housing" body2="mover"/>',
         )
 
@@ -131,14 +138,43 @@ class OpeningTask(FamilyTask):
         self.mover = sim.bid("mover")
         self.housing = sim.bid("housing")
 
-    def reset(self, sim: Sim) -> None:
-        sim.data.qpos[sim.model.joint("mover").qposadr[0]] = self.start * self.range
+    def reset(self, sim: Sim, jitter: float) -> None:
+        frac = self.start + jitter * START_JITTER * self.config.attempt_jitter_rad
+        self.start_now = float(np.clip(frac, 0.0, 1.0))
+        sim.data.qpos[sim.model.joint("mover").qposadr[0]] = self.start_now * self.range
+
+    def jitter_groups(self) -> tuple[tuple[str, ...], ...]:
+        return (("housing",),)
+
+    def row_reach(self) -> dict[int, float]:
+        return {0: 0.2}
+
+    @property
+    def origin(self) -> np.ndarray:
+        return self.s.model.body_pos[self.housing][:2].copy()
+
+    @property
+    def yaw(self) -> float:
+        return yaw_of(self.s.model.body_quat[self.housing])
 
     def q(self) -> float:
         return self.s.qpos("mover")
 
+    def q_seen(self, eye: Any) -> float:
+        """The joint value from the mover's pose relative to the housing's (through ``eye``)."""
+        h_xy, h_yaw = eye.pos(self.housing)[:2], eye.yaw(self.housing)
+        local = rot2(-h_yaw, eye.pos(self.mover)[:2] - h_xy)
+        if self.kind == "drawer":
+            return float(-local[0])
+        if self.kind == "sliding_cover":
+            return float(local[1] * self.sy)
+        return float(wrap(eye.yaw(self.mover) - h_yaw) * self.sy)
+
     def frac(self) -> float:
         return self.q() / self.range
+
+    def held_rows(self) -> set[int]:
+        return {0}
 
     def stages(self) -> tuple[str, ...]:
         return ("reach", "grasp", "open" if self.open_mode else "close", "release")
@@ -147,45 +183,52 @@ class OpeningTask(FamilyTask):
         return self.pad([self.row(self.mover, self.q()), self.row(self.housing)])
 
     def goal(self) -> np.ndarray:
-        return np.array([1.0, self.goal_frac, TOLERANCE, 1.0 if self.open_mode else -1.0])
+        return np.array([1.0, self.goal_frac, self.tolerance, 1.0 if self.open_mode else -1.0])
 
     # -- geometry of the grasp -------------------------------------------------------------------
-    def grasp_pose(self, q: float) -> tuple[np.ndarray, float]:
-        """TCP position and a hand yaw that grasps the handle when the joint is at ``q``."""
+    def grasp_pose(self, q: float, frame: tuple[np.ndarray, float] | None = None
+                   ) -> tuple[np.ndarray, float]:
+        """TCP position and a hand yaw that grasps the handle when the joint is at ``q``
+        (the housing at ``frame``, default its true pose)."""
+        origin, yaw = frame if frame is not None else (self.origin, self.yaw)
         if self.kind == "drawer":
-            local, z, yaw = (BAR_X - q, 0.0), HANDLE_Z - 0.004, self.yaw + math.pi / 2
+            local, z, hand = (BAR_X - q, 0.0), HANDLE_Z - 0.004, yaw + math.pi / 2
         elif self.kind == "sliding_cover":
-            local, z, yaw = (0.0, -0.03 + q), 0.058 + 0.003, self.yaw
+            local, z, hand = (0.0, self.sy * (-0.03 + q)), 0.058 + 0.003, yaw
         else:
-            local = np.array(LID_PIVOT) + rot2(q, LID_KNOB)
-            z, yaw = 0.058 + 0.003, self.yaw + q
-        xy = self.origin + rot2(self.yaw, local)
-        return np.array([xy[0], xy[1], z]), yaw
+            sy = self.sy
+            local = np.array([LID_PIVOT[0], sy * LID_PIVOT[1]]) + rot2(
+                sy * q, (LID_KNOB[0], sy * LID_KNOB[1]))
+            z, hand = 0.058 + 0.003, yaw + sy * q
+        xy = origin + rot2(yaw, local)
+        return np.array([xy[0], xy[1], z]), hand
 
     def evaluate(self) -> Evaluation:
         s = self.s
         grasped = s.grasping(self.mover)
-        err = self.frac() - self.goal_frac
-        reached = abs(err) < TOLERANCE
+        frac = self.frac()
+        err = frac - self.goal_frac
+        reached = abs(err) < self.tolerance
         event = "opened" if self.open_mode else "closed"
         flags = {f"grasped:{self.part}": grasped, f"{event}:{self.part}": reached}
         if reached:
-            return Evaluation("release", 0.0, not s.touching(self.mover), flags)
+            return Evaluation("release", 0.0, not s.touching(self.mover), flags, frac)
         if grasped:
             span = max(abs(self.start - self.goal_frac), 1e-6)
-            return Evaluation(self.stages()[2], 1.0 - abs(err) / span, False, flags)
+            return Evaluation(self.stages()[2], 1.0 - abs(err) / span, False, flags, frac)
         ee = s.ee()
         target, _ = self.grasp_pose(self.q())
         if np.linalg.norm(ee[:2] - target[:2]) < 0.02 and ee[2] < target[2] + 0.02:
-            return Evaluation("grasp", 0.0, False, flags)
+            return Evaluation("grasp", 0.0, False, flags, frac)
         dist = float(np.linalg.norm(ee[:3] - target))
-        return Evaluation("reach", 1.0 - dist / 0.3, False, flags)
+        return Evaluation("reach", 1.0 - dist / 0.3, False, flags, frac)
 
-    def truth(self) -> dict[str, Any]:
+    def truth(self) -> TaskTruth:
         verb = "open" if self.open_mode else "close"
         part = self.part
-        lo = max(0.0, self.goal_frac - TOLERANCE)
-        hi = min(1.0, self.goal_frac + TOLERANCE)
+        tol = self.tolerance
+        lo = max(0.0, self.goal_frac - tol)
+        hi = min(1.0, self.goal_frac + tol)
         joint = {"drawer": "prismatic", "sliding_cover": "prismatic", "swivel_lid": "revolute"}
         return truth_doc(
             self,
@@ -198,10 +241,11 @@ class OpeningTask(FamilyTask):
             ],
             {
                 "mechanism": self.kind,
+                "mirrored": self.sy < 0,
                 "joint_type": joint[self.kind],
                 "joint_range": round(self.range, 6),
                 "direction": verb,
-                "opening_tolerance": TOLERANCE,
+                "opening_tolerance": tol,
                 "max_grip_width": WIDTH_MAX,
             },
             {
@@ -213,33 +257,39 @@ class OpeningTask(FamilyTask):
                 crit(f"{part}_opening", "within", [round(lo, 6), round(hi, 6)]),
                 crit(f"{part}_grasped", "==", False),
             ],
+            {"fraction": round(self.goal_frac, 6), "mode": verb},
         )
 
     # -- expert --------------------------------------------------------------------------------
     def plan(self, env: BenchEnv) -> Plan:
-        s = self.s
-        q0 = self.q()
+        e = self.e
+        frame = (e.pos(self.housing)[:2], e.yaw(self.housing))
         q_goal = self.goal_frac * self.range
-        pos, yaw = self.grasp_pose(q0)
-        _, yaw_end = self.grasp_pose(q_goal)
-        yaw0 = nearest_yaw(yaw, math.pi, -(yaw_end - yaw) / 2)
+        lim = 0.08 if self.kind == "swivel_lid" else 0.01
         # a drawer's inner finger must fit between the bar and the panel
         open_w = 0.032 if self.kind == "drawer" else min(WIDTH_MAX, 0.024 * self.k + 0.04)
-        yield from move(env, pos + [0, 0, 0.05], yaw0, open_w, tol=0.004)
-        yield from move(env, pos, yaw0, open_w, speed=0.6)
-        yield from grip(env, 0.0, 6)
-        lim = 0.08 if self.kind == "swivel_lid" else 0.01
-        for _ in range(150):
-            q = self.q()
-            err = q_goal - q
-            if abs(err) < TOLERANCE * self.range / 3:
+        for _ in range(3):  # grasp, drive, release; look again and correct if needed
+            q0 = self.q_seen(e)
+            pos, yaw = self.grasp_pose(q0, frame)
+            _, yaw_end = self.grasp_pose(q_goal, frame)
+            yaw0 = nearest_yaw(yaw, math.pi, -(yaw_end - yaw) / 2)
+            yield from move(env, pos + [0, 0, 0.05], yaw0, open_w, tol=0.004)
+            yield from move(env, pos, yaw0, open_w, speed=0.6)
+            yield from grip(env, 0.0, 6)
+            for _ in range(150):
+                q = self.q_seen(e)
+                err = q_goal - q
+                if abs(err) < self.tolerance * self.range / 4:
+                    break
+                q_next = q + float(np.clip(err, -lim, lim))
+                nxt, yaw_n = self.grasp_pose(q_next, frame)
+                yaw_cmd = yaw0 + wrap(yaw_n - yaw)
+                yield from move(env, nxt, yaw_cmd, 0.0, max_steps=1)
+            yield from hold(env, 3, 0.0)
+            yield from grip(env, open_w, 6)
+            ee = env.sim.ee()
+            yield from move(env, np.array([*ee[:2], ee[2] + 0.06]), ee[3], open_w, tol=0.005)
+            yield from hold(env, 10, open_w)  # look at the mechanism again
+            if abs(q_goal - self.q_seen(e)) < self.tolerance * self.range / 2:
                 break
-            q_next = q + float(np.clip(err, -lim, lim))
-            nxt, yaw_n = self.grasp_pose(q_next)
-            yaw_cmd = yaw0 + wrap(yaw_n - yaw)
-            yield from move(env, nxt, yaw_cmd, 0.0, max_steps=1)
-        yield from hold(env, 3, 0.0)
-        yield from grip(env, open_w, 6)
-        ee = s.ee()
-        yield from move(env, np.array([*ee[:2], ee[2] + 0.06]), ee[3], open_w, tol=0.005)
         yield from idle(env, open_w)

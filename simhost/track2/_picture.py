@@ -1,10 +1,12 @@
 """``render_attempt_vs_demo``: one PNG comparing an attempt with the demonstration.
 
-Two panels plot the end-effector path seen from above (x right, y up) and from the side
+A title line (track, seed, split, outcome, as the caller gives it) heads the picture. Two
+panels plot the end-effector path seen from above (x right, y up) and from the side
 (x right, z up), the demonstration in blue and the attempt in orange; a disc marks each
-start, a square each end, and small ticks on the demonstration mark where its key stages
-begin. When frames are given, pairs of frames (demonstration left, attempt right) sampled
-evenly along both runs follow below.
+start, a square each end, and small black dots on the demonstration mark where its key
+stages begin; a legend says so, and a scale bar in each panel gives 5 cm. When frames are
+given, pairs of frames (demonstration left, attempt right) sampled evenly along both runs
+follow below.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ def render_attempt_vs_demo(
     path: str | Path | None = None,
     panel: int = 320,
     pairs: int = 4,
+    title: str = "",
 ) -> bytes:
     """Draw the attempt's end-effector path against the demonstration's; return PNG bytes.
 
@@ -53,6 +56,7 @@ def render_attempt_vs_demo(
       path: also write the PNG there.
       panel: side of each plot panel in pixels.
       pairs: how many frame pairs to show.
+      title: the heading (e.g. ``TRACK2 SEED 12 STANDARD ATTEMPT 2 OF 3 FAILED``).
     """
     stage_starts: list[int] = []
     if isinstance(demo, str | Path):
@@ -72,7 +76,7 @@ def render_attempt_vs_demo(
     lo, hi = both.min(axis=0), both.max(axis=0)
     span = float(max(np.max(hi - lo), 0.05)) * 1.15
     centre = (lo + hi) / 2
-    head, margin = 26, 12
+    head, margin = 58, 12
     width = 2 * panel + 3 * margin
     strip: list[np.ndarray] = []
     if attempt_frames and demo_frames:
@@ -84,10 +88,18 @@ def render_attempt_vs_demo(
                                     margin, 3), 255, np.uint8), _resize(b, half)]))
     height = head + panel + 2 * margin + sum(s.shape[0] + margin for s in strip)
     c = Canvas(height, width, PAPER)
-    c.rect(8, margin, 18, margin + 10, DEMO_RGB)
-    c.text(8, margin + 16, "DEMO", INK)
-    c.rect(8, margin + 70, 18, margin + 80, ATTEMPT_RGB)
-    c.text(8, margin + 86, "ATTEMPT", INK)
+    c.text(6, margin, title or "TRACK2 ATTEMPT VS DEMONSTRATION", INK)
+    y = 26
+    c.rect(y, margin, y + 10, margin + 10, DEMO_RGB)
+    c.text(y, margin + 16, "DEMO", INK)
+    c.rect(y, margin + 70, y + 10, margin + 80, ATTEMPT_RGB)
+    c.text(y, margin + 86, "ATTEMPT", INK)
+    c.disc(y + 5, margin + 180, 4, INK)
+    c.text(y, margin + 190, "START", INK)
+    c.rect(y + 1, margin + 250, y + 10, margin + 259, INK)
+    c.text(y, margin + 265, "END", INK)
+    c.disc(y + 5, margin + 315, 2.5, INK)
+    c.text(y, margin + 324, "KEY STAGE STARTS", INK)
     for k, (axis, label) in enumerate(((1, "TOP X-Y"), (2, "SIDE X-Z"))):
         x0, y0 = margin + k * (panel + margin), head + margin
         c.rect(y0, x0, y0 + panel, x0 + panel, (255, 255, 255))
@@ -109,6 +121,10 @@ def render_attempt_vs_demo(
         for s in stage_starts[1:]:
             if s < len(ys):
                 c.disc(ys[s], xs[s], 2.5, INK)
+        bar = int(round(0.05 / span * (panel - 1)))  # 5 cm
+        by, bx = y0 + panel - 12, x0 + 8
+        c.rect(by, bx, by + 3, bx + bar, INK)
+        c.text(by - 14, bx, "5 CM", INK)
     y = head + panel + 2 * margin
     for s in strip:
         c.blit(y, margin, s)

@@ -1,14 +1,17 @@
-"""Rotation: grasp a knob, valve handle or nut on a vertical hinge and turn it to a goal angle.
+"""Rotation: grasp a knob, valve handle or nut on a vertical hinge and turn it by a goal angle.
 
-Parts: ``knob`` (hinged about z; its row's ``joint`` is the angle), ``base`` (fixed post).
-Shapes: ``knob`` a short thick bar, ``valve`` a long thin bar over a hub, ``nut`` a hexagonal
-prism on a bolt. A bar is grasped across its long sides (symmetry pi), the nut across flats
-(symmetry pi/3). The hinge has damping and dry friction, so the handle stays where it is left.
+Parts: ``knob`` (hinged about z), ``base`` (fixed post). Shapes: ``knob`` a short thick bar,
+``valve`` a long thin bar over a hub, ``nut`` a hexagonal prism on a bolt. A bar is grasped
+across its long sides (symmetry pi), the nut across flats (symmetry pi/3). The hinge has
+damping and dry friction, so the handle stays where it is left, and a stop just behind the
+start: it turns only in its ``direction`` (``ccw`` or ``cw``, seen from above).
 
-Stages: ``reach -> grasp -> turn -> release``.
-Success: the angle is within ``TOLERANCE`` of ``init_angle +/- turn`` and the gripper no
-longer touches the handle. Events: ``grasped``/``released``, ``turned`` (part ``knob``).
-Goal vector: ``[1, goal angle (rad), tolerance (rad), +1 ccw / -1 cw]``.
+The goal is a turn, relative to where the handle starts (the start is jittered per attempt):
+``turn`` radians in ``direction``. Stages: ``reach -> grasp -> turn -> release``.
+Success: the turned angle within ``tolerances.rotation_rad`` of the goal turn and the gripper
+no longer touching the handle. Events: ``grasped``/``released``, ``turned`` (part ``knob``).
+Goal vector (dev): ``[1, goal angle (rad, absolute), tolerance (rad), +1 ccw / -1 cw]``.
+``info["value"]``: the angle turned so far (rad, + counter-clockwise).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._bench import WIDTH_MAX, Scene
+from ._bench import WIDTH_MAX, Scene, quat_z, wrap, yaw_of
 from ._family import (
     Evaluation,
     FamilyTask,
@@ -32,12 +35,14 @@ from ._family import (
     truth_doc,
     var,
 )
+from ._truth import TaskTruth
 
 if TYPE_CHECKING:
     from ._env import BenchEnv
     from ._sim import Sim
 
-TOLERANCE = 0.08
+STOP = 0.05  # rad: the stop behind the start
+FREE = 6.3  # rad: how far the handle may turn in its direction
 
 
 class RotationTask(FamilyTask):
@@ -45,8 +50,8 @@ class RotationTask(FamilyTask):
     part_names = ("knob", "base")
     max_steps = 250
 
-    def __init__(self, params: Any) -> None:
-        super().__init__(params)
+    def __init__(self, params: Any, config: Any = None) -> None:
+        super().__init__(params, config)
         p = params
         self.kind = str(p.value("kind"))
         k = p.f("size")
@@ -58,14 +63,14 @@ class RotationTask(FamilyTask):
             self.half = (0.017 * k, 0.017 * k, 0.009)
         self.period = math.pi / 3 if self.kind == "nut" else math.pi
         self.z = p.f("height")
-        self.axis = np.array([p.f("x"), p.f("y")])
-        self.init = p.f("init_angle")
         self.sign = 1.0 if p.value("direction") == "ccw" else -1.0
-        self.target = self.init + self.sign * p.f("turn")
+        self.turn = self.sign * p.f("turn")
+        self.tolerance = self.tol.rotation_rad
 
     def scene(self) -> Scene:
         p = self.p
         hx, hy, hz = self.half
+        lo, hi = (-STOP, FREE) if self.sign > 0 else (-FREE, STOP)
         bottom = self.z - hz
         fr = f'friction="{p.f("part"):.4f} 0.005 0.0001"'
         if self.kind == "nut":
@@ -102,12 +107,13 @@ class RotationTask(FamilyTask):
         return Scene(
             assets=assets,
             bodies=f"""
-    <body name="base" pos="{self.axis[0]:.5f} {self.axis[1]:.5f} 0">{post}</body>
-    <body name="knob" pos="{self.axis[0]:.5f} {self.axis[1]:.5f} {self.z:.5f}">
+    <body name="knob" pos="{p.f('x'):.5f} {p.f('y'):.5f} {self.z:.5f}"
+      quat="{quat_z(p.f('init_angle'))}">
       <joint name="knob" type="hinge" axis="0 0 1" damping="{p.f('damping'):.4f}"
-        frictionloss="{p.f('frictionloss'):.4f}" armature="0.0005"/>
+        frictionloss="{p.f('frictionloss'):.4f}" armature="0.0005" range="{lo:.3f} {hi:.3f}"/>
       {handle}
-    </body>""",
+    </body>
+    <body name="base" pos="{p.f('x'):.5f} {p.f('y'):.5f} 0">{post}</body>""",
             contact='<exclude body1="knob" body2="base"/>',
         )
 
@@ -116,11 +122,24 @@ class RotationTask(FamilyTask):
         self.knob = sim.bid("knob")
         self.base = sim.bid("base")
 
-    def reset(self, sim: Sim) -> None:
-        sim.data.qpos[sim.model.joint("knob").qposadr[0]] = self.init
+    def jitter_groups(self) -> tuple[tuple[str, ...], ...]:
+        return (("knob", "base"),)  # a yaw offset turns the handle's start (and its stop)
+
+    @property
+    def start(self) -> float:
+        """The handle's angle at the start of this attempt (rad)."""
+        return yaw_of(self.s.model.body_quat[self.knob])
+
+    @property
+    def axis(self) -> np.ndarray:
+        return self.s.model.body_pos[self.knob][:2].copy()
 
     def angle(self) -> float:
-        return self.s.qpos("knob")
+        """The handle's angle (rad), continuous: start plus the hinge's turn."""
+        return self.start + self.s.qpos("knob")
+
+    def held_rows(self) -> set[int]:
+        return {0}
 
     def stages(self) -> tuple[str, ...]:
         return ("reach", "grasp", "turn", "release")
@@ -128,44 +147,54 @@ class RotationTask(FamilyTask):
     def parts(self) -> np.ndarray:
         return self.pad([self.row(self.knob, self.angle()), self.row(self.base)])
 
+    def symmetry(self) -> tuple[float, ...]:
+        return (self.period, 2 * math.pi)
+
+    def yaw_priors(self) -> dict[int, float]:
+        return {0: self.p.f("init_angle")}
+
     def goal(self) -> np.ndarray:
-        return np.array([1.0, self.target, TOLERANCE, self.sign])
+        return np.array([1.0, self.start + self.turn, self.tolerance, self.sign])
 
     def evaluate(self) -> Evaluation:
         s = self.s
-        err = self.angle() - self.target
+        turned = self.s.qpos("knob")
+        err = turned - self.turn
         grasped = s.grasping(self.knob)
-        reached = abs(err) < TOLERANCE
+        reached = abs(err) < self.tolerance
         flags = {"grasped:knob": grasped, "turned:knob": reached}
         if reached:
             done = not s.touching(self.knob)
-            return Evaluation("release", 0.0, done, flags)
+            return Evaluation("release", 0.0, done, flags, turned)
         if grasped:
-            return Evaluation("turn", 1.0 - abs(err) / abs(self.target - self.init), False, flags)
+            return Evaluation("turn", 1.0 - abs(err) / abs(self.turn), False, flags, turned)
         ee = s.ee()
-        top = np.array([*self.axis, self.z + self.half[2]])
-        if np.linalg.norm(ee[:2] - self.axis) < 0.015 and ee[2] < top[2] + 0.005:
-            return Evaluation("grasp", 0.0, False, flags)
-        return Evaluation("reach", 1.0 - float(np.linalg.norm(ee[:3] - top)) / 0.3, False, flags)
+        axis = self.axis
+        top = np.array([*axis, self.z + self.half[2]])
+        if np.linalg.norm(ee[:2] - axis) < 0.015 and ee[2] < top[2] + 0.005:
+            return Evaluation("grasp", 0.0, False, flags, turned)
+        return Evaluation("reach", 1.0 - float(np.linalg.norm(ee[:3] - top)) / 0.3, False, flags,
+                          turned)
 
-    def truth(self) -> dict[str, Any]:
-        lo, hi = self.target - TOLERANCE, self.target + TOLERANCE
+    def truth(self) -> TaskTruth:
+        tol = self.tolerance
+        lo, hi = self.turn - tol, self.turn + tol
         return truth_doc(
             self,
             [
                 var("ee_pose", "pose"),
                 var("gripper_width", "length"),
                 var("knob_angle", "angle", "knob"),
+                var("knob_turn", "angle", "knob"),
                 var("knob_grasped", "bool", "knob"),
-                var("angle_error", "angle", "knob"),
             ],
             {
                 "handle_kind": self.kind,
                 "rotation_axis": "vertical",
                 "grasp_symmetry": round(self.period, 6),
                 "turn_direction": "ccw" if self.sign > 0 else "cw",
-                "turn_angle": round(abs(self.target - self.init), 6),
-                "angle_tolerance": TOLERANCE,
+                "turn_angle": round(abs(self.turn), 6),
+                "angle_tolerance": tol,
                 "max_grip_width": WIDTH_MAX,
             },
             {
@@ -174,30 +203,40 @@ class RotationTask(FamilyTask):
                 "release": ["knob_at_goal"],
             },
             [
-                crit("knob_angle", "within", [round(lo, 6), round(hi, 6)]),
+                crit("knob_turn", "within", [round(lo, 6), round(hi, 6)]),
                 crit("knob_grasped", "==", False),
             ],
+            {"turn": round(abs(self.turn), 6), "direction": "ccw" if self.sign > 0 else "cw"},
         )
 
     def plan(self, env: BenchEnv) -> Plan:
-        s = self.s
-        theta = self.angle()
-        delta = self.target - theta
-        yaw0 = nearest_yaw(theta, self.period, -delta / 2)
+        e = self.e
+        theta = e.yaw(self.knob)  # continuous in the observed eye; unwrapped below
+        target = theta + self.turn
+        axis = e.pos(self.knob)[:2]
         open_w = min(WIDTH_MAX, 2 * self.half[1] + 0.035)
         tcp_z = self.z - self.half[2] + 0.003
-        yield from move(env, np.array([*self.axis, self.z + 0.06]), yaw0, open_w, tol=0.004)
-        yield from move(env, np.array([*self.axis, tcp_z]), yaw0, open_w, speed=0.6)
-        yield from grip(env, 0.0, 6)
-        for _ in range(120):  # turn, closing the loop on the measured angle
-            err = self.target - self.angle()
-            if abs(err) < 0.015:
+        for _ in range(3):  # grasp, turn, release; look again and correct if needed
+            yaw0 = nearest_yaw(theta, self.period, -(target - theta) / 2)
+            yield from move(env, np.array([*axis, self.z + 0.06]), yaw0, open_w, tol=0.004)
+            yield from move(env, np.array([*axis, tcp_z]), yaw0, open_w, speed=0.6)
+            yield from grip(env, 0.0, 6)
+            hand0 = env.sim.ee()[3]
+            for _ in range(120):  # turn, dead-reckoning the handle on the hand's yaw
+                err = target - (theta + env.sim.ee()[3] - hand0)
+                if abs(err) < 0.012:
+                    break
+                ee = env.sim.ee()
+                step = float(np.clip(err, -0.1, 0.1))
+                yield from move(env, np.array([*axis, tcp_z]), ee[3] + step, 0.0, max_steps=1)
+            yield from hold(env, 3, 0.0)
+            yield from grip(env, open_w, 6)
+            ee = env.sim.ee()
+            yield from move(env, np.array([*ee[:2], self.z + 0.08]), ee[3], open_w, tol=0.005)
+            yield from hold(env, 10, open_w)  # look at the handle again
+            seen = e.yaw(self.knob)
+            guess = theta + env.sim.ee()[3] - hand0
+            theta = guess + wrap(seen - guess)
+            if abs(target - theta) < self.tolerance / 2:
                 break
-            ee = s.ee()
-            step = float(np.clip(err, -0.1, 0.1))
-            yield from move(env, np.array([*self.axis, tcp_z]), ee[3] + step, 0.0, max_steps=1)
-        yield from hold(env, 3, 0.0)
-        yield from grip(env, open_w, 6)
-        ee = s.ee()
-        yield from move(env, np.array([*ee[:2], self.z + 0.08]), ee[3], open_w, tol=0.005)
         yield from idle(env, open_w)

@@ -75,6 +75,10 @@ class Sim:
             return 0.0
         return float(self.data.qvel[self.model.jnt_dofadr[j] + 2])
 
+    def site(self, site: int) -> np.ndarray:
+        """World position of a site."""
+        return self.data.site_xpos[site].copy()
+
     def qpos(self, joint: str) -> float:
         return float(self.data.qpos[self.model.joint(joint).qposadr[0]])
 

@@ -8,7 +8,11 @@ the other slot a too-short distractor when ``distractor`` is set.
   fingers. Success: the button pushed down by ``PRESS_DEPTH``. The short stick cannot reach.
 - ``pull``: a hoe (tall handle, shaft of ``tool_length + 0.1``, blade) lies on the table; a
   puck lies beyond the hand's reach (x > 0.3). Success: the puck's centre within
-  ``GOAL_TOL`` of the goal line ``x = goal_x``. The short hoe cannot reach behind the puck.
+  ``tolerances.pull_m`` of the goal line (a visible marker). The short hoe cannot reach
+  behind the puck.
+
+On the wide ranges the mechanism itself may differ from the demonstration's
+(``VariationConfig.mechanism_switch``).
 
 Parts rows: ``tool_a``, ``tool_a_tip``, ``tool_b``, ``tool_b_tip`` (handle pose and tip
 position of the tool in slot 0 / 1, zero when the slot is empty), ``target`` (button, joint =
@@ -16,7 +20,8 @@ its travel; or puck) and ``fixture`` (the well; or the goal-line marker).
 Stages: ``reach_tool -> grasp_tool -> carry_tool -> press|pull``.
 Events: ``grasped``/``released`` (``tool``, or ``wrong_tool`` for the distractor), ``lifted``
 (``tool``), ``pressed`` (``button``) or ``aligned`` (``puck``).
-Goal vector: press ``[0, 0, 0, 0]`` (no goal stated); pull ``[1, goal_x, tolerance, 0]``.
+Goal vector (dev): press ``[0, 0, 0, 0]`` (no goal stated); pull ``[1, goal_x, tolerance, 0]``.
+``info["value"]``: the button's travel (m) or the puck's x offset from the goal line (m).
 """
 
 from __future__ import annotations
@@ -42,6 +47,7 @@ from ._family import (
     truth_doc,
     var,
 )
+from ._truth import TaskTruth
 
 if TYPE_CHECKING:
     from ._env import BenchEnv
@@ -57,7 +63,6 @@ RACK_IN = 0.0065  # rack inner half-width around a 0.005 shaft
 RACK_H = 0.045
 PRESS_DEPTH = 0.006
 BUTTON_TOP = 0.016
-GOAL_TOL = 0.02
 PALM_GAP = 0.056  # TCP below a handle's top when the palm rests on it
 
 
@@ -66,9 +71,10 @@ class ToolUseTask(FamilyTask):
     part_names = ("tool_a", "tool_a_tip", "tool_b", "tool_b_tip", "target", "fixture")
     max_steps = 400
 
-    def __init__(self, params: Any) -> None:
-        super().__init__(params)
+    def __init__(self, params: Any, config: Any = None) -> None:
+        super().__init__(params, config)
         p = params
+        self.goal_tol = self.tol.pull_m
         self.press = p.value("mechanism") == "press"
         self.slot = int(p.value("tool_slot"))  # type: ignore[arg-type]
         self.square = p.value("tool_shape") == "square"
@@ -79,10 +85,10 @@ class ToolUseTask(FamilyTask):
             self.lengths[1 - self.slot] = SHORT
         u, v = p.f("target_u"), p.f("target_v")
         if self.press:
-            self.target_xy = np.array([0.08 + 0.10 * u, -0.10 + 0.20 * v])
+            self.target_xy0 = np.array([0.08 + 0.10 * u, -0.10 + 0.20 * v])
         else:
-            self.target_xy = np.array([0.36 + 0.06 * u, -0.10 + 0.20 * v])
-        self.goal_x = 0.08 + 0.12 * p.f("goal_u")
+            self.target_xy0 = np.array([0.36 + 0.06 * u, -0.10 + 0.20 * v])
+        self.goal_x0 = 0.08 + 0.12 * p.f("goal_u")
         self.depth = p.f("well_depth")
         self.r = p.f("puck_radius")
 
@@ -94,6 +100,7 @@ class ToolUseTask(FamilyTask):
         x, y = x0 + p.f("tool_dx"), y0 + p.f("tool_dy")
         colour = 'rgba="0.1 0.6 0.6 1"' if length > SHORT else 'rgba="0.6 0.3 0.6 1"'
         name = "tool_a" if slot == 0 else "tool_b"
+        rho = 1.33 * p.f("density")
         if self.press:
             hx, hy, hz = HANDLE
             shaft = (
@@ -104,8 +111,9 @@ class ToolUseTask(FamilyTask):
             return (
                 f'<body name="{name}" pos="{x:.5f} {y:.5f} {length + hz + 0.0005:.5f}" '
                 f'quat="{quat_z(p.f("tool_yaw"))}"><freejoint name="{name}"/>'
-                f'<geom type="box" size="{hx} {hy} {hz}" density="400" {fr} {colour}/>'
-                f'<geom {shaft} pos="0 0 {-hz - length / 2:.5f}" density="800" {fr} {colour}/>'
+                f'<geom type="box" size="{hx} {hy} {hz}" density="{rho * 0.5:.1f}" {fr} {colour}/>'
+                f'<geom {shaft} pos="0 0 {-hz - length / 2:.5f}" density="{rho:.1f}" {fr} '
+                f'{colour}/>'
                 f'<site name="{name}_tip" pos="0 0 {-hz - length:.5f}" size="0.003"/></body>'
                 f'<body name="rack_{slot}" pos="{x:.5f} {y:.5f} 0" '
                 f'quat="{quat_z(p.f("tool_yaw"))}">'
@@ -133,7 +141,7 @@ class ToolUseTask(FamilyTask):
     def scene(self) -> Scene:
         p = self.p
         tools = "".join(self._tool(i, n) for i, n in enumerate(self.lengths) if n is not None)
-        tx, ty = self.target_xy
+        tx, ty = self.target_xy0
         if self.press:
             walls = "".join(box_walls(WELL_IN, WELL_IN, 0.015, self.depth))
             target = f"""
@@ -149,10 +157,10 @@ class ToolUseTask(FamilyTask):
         else:
             target = f"""
     <body name="target" pos="{tx:.5f} {ty:.5f} 0.0105"><freejoint name="puck"/>
-      <geom type="cylinder" size="{self.r:.5f} 0.01" density="600"
+      <geom type="cylinder" size="{self.r:.5f} 0.01" density="{p.f('density'):.1f}"
         friction="{p.f('part'):.4f} 0.005 0.0001" rgba="0.9 0.5 0.1 1"/>
     </body>
-    <body name="fixture" pos="{self.goal_x:.5f} 0 0.0005">
+    <body name="fixture" pos="{self.goal_x0:.5f} 0 0.0005">
       <geom type="box" size="0.003 0.2 0.0005" contype="0" conaffinity="0"
         rgba="0.1 0.8 0.1 1"/>
     </body>"""
@@ -180,6 +188,48 @@ class ToolUseTask(FamilyTask):
             out["wrong_tool"] = self.other
         return out
 
+    def jitter_groups(self) -> tuple[tuple[str, ...], ...]:
+        names = ("tool_a", "tool_b")
+        tools = [(names[i], f"rack_{i}") if self.press else (names[i],)
+                 for i, n in enumerate(self.lengths) if n is not None]
+        targets = [("fixture", "target")] if self.press else [("target",), ("fixture",)]
+        return (*tools, *targets)
+
+    def row_refs(self) -> tuple[tuple[str, int] | None, ...]:
+        rows: list[tuple[str, int] | None] = []
+        for b, t in zip(self.tools, self.tips, strict=True):
+            rows += [None, None] if b is None or t is None else [("body", b), ("site", t)]
+        return (*rows, ("body", self.target), ("body", self.fixture))
+
+    def row_links(self) -> dict[int, int]:
+        return {1: 0, 3: 2}
+
+    def symmetry(self) -> tuple[float, ...]:
+        tool = math.pi / 2 if self.press else 2 * math.pi
+        target = math.pi / 2 if self.press else 2 * math.pi
+        return (tool, 2 * math.pi, tool, 2 * math.pi, target, 2 * math.pi)
+
+    def yaw_priors(self) -> dict[int, float]:
+        base = self.p.f("tool_yaw")
+        if self.press:
+            return {0: base, 2: base}
+        return {0: math.pi / 2 + base, 2: -math.pi / 2 + base}
+
+    @property
+    def target_xy(self) -> np.ndarray:
+        """Where the button or the puck started (the jittered fixture)."""
+        return self.s.model.body_pos[self.target][:2].copy() if self.press else \
+            self._puck0[:2].copy()
+
+    @property
+    def goal_x(self) -> float:
+        return float(self.s.pos(self.fixture)[0])
+
+    def reset(self, sim: Sim, jitter: float) -> None:
+        self._puck0 = np.array(self.target_xy0)
+        if not self.press:  # the puck's jittered start
+            adr = int(sim.model.jnt_qposadr[sim.model.body_jntadr[self.target]])
+            self._puck0 = sim.data.qpos[adr : adr + 2].copy()
     def stages(self) -> tuple[str, ...]:
         return ("reach_tool", "grasp_tool", "carry_tool", "press" if self.press else "pull")
 
@@ -198,7 +248,7 @@ class ToolUseTask(FamilyTask):
     def goal(self) -> np.ndarray:
         if self.press:
             return np.zeros(4)
-        return np.array([1.0, self.goal_x, GOAL_TOL, 0.0])
+        return np.array([1.0, self.goal_x, self.goal_tol, 0.0])
 
     # -- reading -------------------------------------------------------------------------------
     def tip(self) -> np.ndarray:
@@ -211,7 +261,12 @@ class ToolUseTask(FamilyTask):
     def done(self) -> bool:
         if self.press:
             return self.s.qpos("button") <= -PRESS_DEPTH
-        return abs(float(self.s.pos(self.target)[0]) - self.goal_x) < GOAL_TOL
+        return abs(float(self.s.pos(self.target)[0]) - self.goal_x) < self.goal_tol
+
+    def value(self) -> float:
+        if self.press:
+            return -self.s.qpos("button")
+        return float(self.s.pos(self.target)[0]) - self.goal_x
 
     def evaluate(self) -> Evaluation:
         s = self.s
@@ -223,33 +278,36 @@ class ToolUseTask(FamilyTask):
         success = self.done()
         flags["pressed:button" if self.press else "aligned:puck"] = success
         use = self.stages()[-1]
+        value = self.value()
         if success:
-            return Evaluation(use, 1.0, True, flags)
+            return Evaluation(use, 1.0, True, flags, value)
         if held:
             if self.press:
                 near = np.linalg.norm(tip[:2] - self.target_xy) < WELL_IN
                 if near and tip[2] < self.depth + 0.01:
-                    return Evaluation(use, 1.0 - (tip[2] - BUTTON_TOP) / self.depth, False, flags)
+                    return Evaluation(use, 1.0 - (tip[2] - BUTTON_TOP) / self.depth, False, flags,
+                                      value)
                 d = float(np.linalg.norm(tip[:2] - self.target_xy))
             else:
                 puck = s.pos(self.target)
                 behind = tip[0] > puck[0] and abs(tip[1] - puck[1]) < 0.04 and tip[2] < 0.015
                 if behind:
                     span = max(abs(self.target_xy[0] - self.goal_x), 1e-6)
-                    return Evaluation(use, 1.0 - abs(puck[0] - self.goal_x) / span, False, flags)
+                    return Evaluation(use, 1.0 - abs(puck[0] - self.goal_x) / span, False, flags,
+                                      value)
                 d = float(np.linalg.norm(tip[:2] - (puck[:2] + [self.r + 0.02, 0.0])))
-            return Evaluation("carry_tool", 1.0 - d / 0.4, False, flags)
+            return Evaluation("carry_tool", 1.0 - d / 0.4, False, flags, value)
         ee, top = s.ee(), self.handle_top(self.tool)
         if np.linalg.norm(ee[:2] - top[:2]) < 0.012 and ee[2] < top[2]:
-            return Evaluation("grasp_tool", 0.0, False, flags)
+            return Evaluation("grasp_tool", 0.0, False, flags, value)
         return Evaluation("reach_tool", 1.0 - float(np.linalg.norm(ee[:3] - top)) / 0.4, False,
-                          flags)
+                          flags, value)
 
     def _lifted(self) -> bool:
         z0 = self.lengths[self.slot] + HANDLE[2] if self.press else HOE_HANDLE_H  # type: ignore
         return float(self.s.pos(self.tool)[2]) > z0 + 0.01
 
-    def truth(self) -> dict[str, Any]:
+    def truth(self) -> TaskTruth:
         use = self.stages()[-1]
         variables = [
             var("ee_pose", "pose"),
@@ -275,12 +333,12 @@ class ToolUseTask(FamilyTask):
             success = [crit("button_travel", ">=", PRESS_DEPTH)]
         else:
             variables += [var("puck_position", "position", "puck"),
-                          var("puck_x", "length", "puck"),
+                          var("puck_goal_offset", "length", "puck"),
                           var("tip_behind_puck", "bool", "tool")]
-            constraints |= {"goal_x": round(self.goal_x, 6), "goal_tolerance": GOAL_TOL}
+            constraints |= {"goal_tolerance": self.goal_tol}
             pre = ["tool_grasped", "tip_behind_puck"]
-            success = [crit("puck_x", "within",
-                            [round(self.goal_x - GOAL_TOL, 6), round(self.goal_x + GOAL_TOL, 6)])]
+            success = [crit("puck_goal_offset", "within",
+                            [round(-self.goal_tol, 6), round(self.goal_tol, 6)])]
         return truth_doc(
             self,
             variables,
@@ -291,13 +349,14 @@ class ToolUseTask(FamilyTask):
                 use: pre,
             },
             success,
+            {"mechanism": "press" if self.press else "pull"},
         )
 
     # -- expert --------------------------------------------------------------------------------
     def plan(self, env: BenchEnv) -> Plan:
-        s = self.s
-        top = self.handle_top(self.tool)
-        tool_yaw = s.yaw(self.tool)
+        e = self.e
+        top = e.point(self.tool, (0.0, 0.0, HANDLE[2] if self.press else HOE_HANDLE_H))
+        tool_yaw = e.yaw(self.tool)
         if self.press:
             yaw0 = nearest_yaw(tool_yaw, math.pi / 2)
             depth = PALM_GAP - 0.002
@@ -311,46 +370,53 @@ class ToolUseTask(FamilyTask):
         yield from idle(env, 0.0)
 
     def _press(self, env: BenchEnv) -> Plan:
-        s = self.s
-        z = self.depth + 0.02 + (s.ee()[2] - self.tip()[2])
+        e = self.e
+        target_xy = e.pos(self.target)[:2]
+        z = self.depth + 0.02 + (env.sim.ee()[2] - e.site(self.tip_site)[2])
         for _ in range(3):
-            ee = s.ee()
-            goal = ee[:2] + self.target_xy - self.tip()[:2]
+            ee = env.sim.ee()
+            goal = ee[:2] + target_xy - e.site(self.tip_site)[:2]
             yield from move(env, np.array([*goal, z]), ee[3], 0.0, tol=0.003)
+        yield from hold(env, 4, 0.0)  # let the estimates settle while still
 
         def error() -> tuple[np.ndarray, float]:
-            return self.target_xy - self.tip()[:2], 0.0
+            return target_xy - e.site(self.tip_site)[:2], 0.0
 
         yield from servo(env, error, z, tol=0.0015)
+        deep = BUTTON_TOP - PRESS_DEPTH - 0.003  # the tip this low has pressed far enough
         for _ in range(80):
-            if self.done():
+            tip = e.site(self.tip_site)
+            if tip[2] <= deep:
                 break
-            ee = s.ee()
-            xy = ee[:2] + self.target_xy - self.tip()[:2]
-            step = 0.006 if self.tip()[2] > self.depth else 0.003
+            ee = env.sim.ee()
+            xy = ee[:2] + target_xy - tip[:2]
+            step = 0.006 if tip[2] > self.depth else 0.003
             yield from move(env, np.array([*xy, ee[2] - step]), ee[3], 0.0, max_steps=1)
         yield from hold(env, 5, 0.0)
 
     def _pull(self, env: BenchEnv, yaw: float) -> Plan:
-        s = self.s
-        ee = s.ee()
+        e = self.e
+        ee = env.sim.ee()
         yield from move(env, np.array([*ee[:2], 0.08]), yaw, 0.0, tol=0.004, speed=0.7)
-        puck = s.pos(self.target)
+        yield from hold(env, 4, 0.0)
+        puck = e.pos(self.target)
+        goal_x = float(e.pos(self.fixture)[0])
         for _ in range(3):  # blade beyond the puck, high enough to pass over it
-            ee, tip = s.ee(), self.tip()
+            ee, tip = env.sim.ee(), e.site(self.tip_site)
             want = np.array([puck[0] + self.r + 0.02, puck[1]])
             goal = ee[:2] + want - tip[:2]
             yield from move(env, np.array([*goal, ee[2] - (tip[2] - 0.04)]), yaw, 0.0, tol=0.003)
-        ee, tip = s.ee(), self.tip()
+        ee, tip = env.sim.ee(), e.site(self.tip_site)
         yield from move(env, np.array([*ee[:2], ee[2] - (tip[2] - 0.003)]), yaw, 0.0, speed=0.5,
                         tol=0.002)
         for _ in range(150):
-            puck = s.pos(self.target)
-            if puck[0] - self.goal_x < 0.004:
+            puck = e.pos(self.target)
+            if puck[0] - goal_x < 0.004:
                 break
-            ee, tip = s.ee(), self.tip()
+            ee, tip = env.sim.ee(), e.site(self.tip_site)
             dy = puck[1] - tip[1]
-            speed = 0.008 if puck[0] - self.goal_x > 0.03 else 0.003
-            goal = np.array([ee[0] - speed, ee[1] + 0.5 * dy, ee[2] - (tip[2] - 0.003)])
+            speed = 0.008 if puck[0] - goal_x > 0.03 else 0.003
+            z = max(0.012, ee[2] - (tip[2] - 0.003))  # never press the handle into the table
+            goal = np.array([ee[0] - speed, ee[1] + 0.5 * dy, z])
             yield from move(env, goal, yaw, 0.0, max_steps=1)
         yield from hold(env, 5, 0.0)

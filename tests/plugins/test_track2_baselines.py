@@ -1,13 +1,15 @@
 """Track 2 baselines as local processes through the real worker, host and Zenoh.
 
 The agents run with ``LocalProcessRuntime`` (no sandbox: development only; the Docker test is
-``tests/orchestrator/test_track2_docker.py``). Budgets are step-capped so that outcomes do
-not depend on the machine: each attempt has its family's step cap, the execution stage a
-cap above three attempts, and the clock is scaled but never binding.
+``tests/orchestrator/test_track2_docker.py``). Budgets are the official ones; the episode's
+own step budget caps execution, so outcomes do not depend on how fast the machine is. The
+calibration against Table VII is a benchmark (``tests/benchmarks/bench_track2_fidelity.py``),
+not a test: here each baseline plays whole episodes and the checks are about what it did.
 """
 
 from __future__ import annotations
 
+import json
 import shutil
 import tempfile
 from collections.abc import Iterator
@@ -18,14 +20,11 @@ import pytest
 from orchestrator._local import LocalProcessRuntime
 from orchestrator._worker import EpisodeSpec, run_episode
 from plugins import load_track
-from plugins.track2 import attempt_png
 from schemas import EpisodeResult, EpisodeStatus, Limits, TaskModel, load_json
 
 TRACK = load_track("track2")
-LIMITS = Limits(time_scale=0.2, max_steps_per_stage=2000, startup_s=60.0)
-# 20 instances: every family 4 times, half of them from the challenge split.
-INSTANCES = [(seed, "standard" if seed < 10 else "challenge") for seed in range(20)]
-AGENTS = {"waypoint": "track2_waypoint", "demo parser": "track2_demoparser"}
+LIMITS = Limits(startup_s=60.0, pin_cpus=False)
+BASELINES = ("track2_waypoint", "track2_demoparser", "track2_imitation", "track2_taskmodel")
 
 
 @pytest.fixture(scope="module")
@@ -36,56 +35,52 @@ def runs() -> Iterator[Path]:
     shutil.rmtree(folder, ignore_errors=True)
 
 
-def run(agent: str, seed: int, split: str, runs: Path) -> EpisodeResult:
+def run(agent: str, seed: int, index: int, runs: Path, split: str = "standard") -> EpisodeResult:
     spec = EpisodeSpec(track="track2", image=f"python examples/{agent}/agent.py", seed=seed,
-                       split=split, params={"demo_frames": False}, limits=LIMITS,
+                       split=split, index=index, params={"demo_frames": False}, limits=LIMITS,
                        runs_dir=runs, exit_grace_s=5.0)
     return run_episode(spec, LocalProcessRuntime(quiet=True))
 
 
-def test_demo_parser_episode_end_to_end(runs: Path) -> None:
-    r = run("track2_demoparser", 3, "standard", runs)
+def _log(r: EpisodeResult) -> list[dict]:
+    path = Path(r.episode_dir or "") / "host" / "output" / "episode_log.jsonl"
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+@pytest.mark.parametrize("agent", BASELINES)
+def test_every_baseline_plays_an_official_episode(agent: str, runs: Path) -> None:
+    r = run(agent, seed=4101, index=1, runs=runs)  # a rotation
     assert r.status is EpisodeStatus.COMPLETED, r.failure
     assert r.stages_reached == ("demonstration", "parsing", "execution")
     assert {f.name for f in r.files if f.ok} == {"task_model.json", "episode_log.jsonl"}
-    assert r.score.metrics["task_success"] == 1.0 and r.score.total > 0.8
-    assert r.score.metrics["task_model"] > 0.9
-    host = Path(r.episode_dir or "") / "host"
-    model = load_json(host / "output" / "task_model.json", TaskModel)
-    assert model.family == "opening"
-    assert (host / "snapshots" / "parsing" / "task_model.json").is_file()
-    png = attempt_png(r.episode_dir or "")
-    assert png == host / "attempt_1.png" and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    model = load_json(Path(r.episode_dir or "") / "host" / "output" / "task_model.json",
+                      TaskModel)
+    assert model.family == "rotation" and model.stages[:2] == ["reach", "grasp"]
+    heard = [x["data"] for x in _log(r) if x["event"] == "attempt" and "success" in x["data"]]
+    assert [h["attempt"] for h in heard] == list(range(1, len(heard) + 1))
+    assert len(heard) == r.score.metrics["attempts"] or r.score.metrics["task_success"] == 1.0
+    assert 0.0 <= r.score.total <= 1.0 and r.score.components["stability"] >= 0.0
 
 
-def test_waypoint_replay_uses_all_three_attempts(runs: Path) -> None:
-    r = run("track2_waypoint", 1, "standard", runs)  # a rotation whose goal angle moved
+def test_task_model_baseline_writes_the_fullest_model(runs: Path) -> None:
+    got = {agent: run(agent, seed=4103, index=3, runs=runs) for agent in
+           ("track2_waypoint", "track2_demoparser", "track2_taskmodel")}  # an opening
+    models = {a: r.score.metrics["task_model"] for a, r in got.items()}
+    assert models["track2_taskmodel"] >= models["track2_demoparser"] > models["track2_waypoint"]
+    tm = load_json(Path(got["track2_taskmodel"].episode_dir or "") / "host" / "output"
+                   / "task_model.json", TaskModel)
+    names = {c.name for c in tm.constraints}
+    assert {"mechanism", "direction", "opening_tolerance"} <= names
+    assert any(c.variable.endswith("_opening") and c.op == "within"
+               for c in tm.success_criteria)
+
+
+def test_a_failed_attempt_is_heard_and_the_next_one_starts(runs: Path) -> None:
+    r = run("track2_waypoint", seed=4104, index=4, runs=runs)  # a tool use
     assert r.status is EpisodeStatus.COMPLETED, r.failure
-    assert r.score.metrics["task_success"] == 0.0 and r.score.metrics["attempts"] == 3.0
-    assert "attempts=3, success at none" in r.score.notes
-    log = (Path(r.episode_dir or "") / "host" / "output" / "episode_log.jsonl").read_text()
-    assert log.count('"attempts_left"') == 3, "the agent heard the outcome of every attempt"
-    png = attempt_png(r.episode_dir or "", attempt=2)
-    assert png.name == "attempt_2.png" and png.stat().st_size > 1000
-
-
-@pytest.mark.slow
-def test_demo_parser_beats_waypoint_replay(runs: Path) -> None:
-    results = {name: [run(agent, seed, split, runs) for seed, split in INSTANCES]
-               for name, agent in AGENTS.items()}
-    for name, rs in results.items():
-        bad = [(r.episode, r.status.value) for r in rs if r.status is not EpisodeStatus.COMPLETED]
-        assert not bad, f"{name}: {bad}"
-    rows = {name: TRACK.summarize(rs) for name, rs in results.items()}
-    print()
-    print(f"{'baseline':12s}" + "".join(f"{c.title:>16s}" for c in TRACK.columns))
-    for name, row in rows.items():
-        cells = ["-" if row[c.key] is None else c.fmt.format(row[c.key]) for c in TRACK.columns]
-        print(f"{name:12s}" + "".join(f"{x:>16s}" for x in cells))
-    wp, dp = rows["waypoint"], rows["demo parser"]
-    assert dp["final"] > wp["final"] + 10  # type: ignore[operator]
-    for fam in ("insertion", "rotation", "assembly", "opening", "tool_use"):
-        assert dp[fam] > wp[fam], fam  # type: ignore[operator]
-    assert dp["task_success"] > wp["task_success"]  # type: ignore[operator]
-    assert dp["task_model"] > wp["task_model"] + 30  # type: ignore[operator]
-    assert dp["attempts"] < wp["attempts"]  # type: ignore[operator]
+    ends = [x["data"] for x in _log(r) if x["event"] == "attempt" and "success" in x["data"]]
+    if r.score.metrics["task_success"] == 0.0:
+        assert [e["attempt"] for e in ends] == [1, 2, 3]
+        assert "attempts=3, success at none" in r.score.notes
+    png = TRACK.picture(Path(r.episode_dir or ""))
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -1,4 +1,5 @@
-"""Track 2 scenarios, the demonstration packet, stages and the attempt rules (real MuJoCo)."""
+"""Track 2 scenarios (balanced families, feasible instances), the demonstration packet, stages
+and the attempt rules (real MuJoCo)."""
 
 from __future__ import annotations
 
@@ -9,10 +10,9 @@ import numpy as np
 import pytest
 
 from plugins import PluginError, Scenario, load_track
-from plugins.track2 import Track2Episode
+from plugins.track2 import Track2Episode, Track2Scenario
 from simhost.track2 import (
     FAMILIES,
-    InstanceParams,
     ScriptedExpert,
     instance_distance,
     read_demo_packet,
@@ -22,8 +22,10 @@ TRACK = load_track("track2")
 HOLD = np.array([0.0, 0.0, 0.0, 0.0, 1.0], dtype=np.float32)
 
 
-def make(seed: int = 0, split: str = "standard", **params: Any) -> Scenario:
-    return TRACK.make_scenario(seed=seed, split=split, params={"demo_frames": False, **params})
+def make(seed: int = 0, split: str = "standard", index: int | None = None,
+         **params: Any) -> Scenario:
+    return TRACK.make_scenario(seed=seed, split=split, params={"demo_frames": False, **params},
+                               index=index)
 
 
 def start(scenario: Scenario) -> Track2Episode:
@@ -44,23 +46,38 @@ def test_stages_follow_table_v() -> None:
         ("demonstration", 5, False), ("parsing", 20, False), ("execution", 30, True)]
 
 
-def test_families_mix_by_seed_and_scenarios_are_deterministic() -> None:
-    got = [make(seed).params["family"] for seed in range(5)]
-    assert got == list(FAMILIES)
+def test_families_balance_by_index_and_scenarios_are_deterministic() -> None:
+    assert [make(100 + i, index=i).params["family"] for i in range(5)] == list(FAMILIES)
+    assert [make(seed).params["family"] for seed in range(5)] == list(FAMILIES)
     a, b = make(7), make(7)
     assert a.params == b.params
-    p = a.params
-    src, inst = (InstanceParams.model_validate(p[k]) for k in ("source", "instance"))
-    assert p["distance"] == pytest.approx(instance_distance(src, inst), abs=1e-6)
-    assert src.family == inst.family == p["family"] and src != inst
+    s = Track2Scenario.model_validate(a.params)
+    assert s.distance == pytest.approx(instance_distance(s.source, s.instance), abs=1e-6)
+    assert s.source.family == s.instance.family == s.family and s.source != s.instance
     assert make(3, family="rotation").params["family"] == "rotation"
+
+
+def test_hidden_instances_are_feasible_through_the_observation_channel() -> None:
+    for i in range(5):
+        s = Track2Scenario.model_validate(make(300 + i, "challenge", index=i).params)
+        assert s.expert_steps is not None and s.expert_steps <= s.attempt_steps, s.family
+        assert 1 <= s.draws <= 8
+        assert not s.bench.observation.joint_readings and not s.bench.observation.goal_vector
+
+
+def test_official_goals_come_from_the_demonstration() -> None:
+    s = Track2Scenario.model_validate(make(11, "standard", index=1).params)  # rotation
+    assert s.instance.value("turn") == s.source.value("turn")
+    assert s.preset == "standard" and s.bench.tolerances.rotation_rad == 0.05
+    dev = Track2Scenario.model_validate(make(11, "dev", index=1).params)
+    assert dev.bench.observation.goal_vector and dev.bench.tolerances.rotation_rad == 0.08
 
 
 def test_challenge_instances_lie_farther_from_the_demonstration() -> None:
     seeds = range(10)
     std = np.mean([make(s, "standard").params["distance"] for s in seeds])
     ch = np.mean([make(s, "challenge").params["distance"] for s in seeds])
-    assert ch > std + 0.05
+    assert ch > std + 0.03
 
 
 def test_bad_scenario_parameters_say_what_is_wrong() -> None:
@@ -70,6 +87,11 @@ def test_bad_scenario_parameters_say_what_is_wrong() -> None:
         TRACK.make_scenario(seed=1, split="standard", params={"difficulty": 2})
     with pytest.raises(PluginError, match="Did you mean 'tool_use'"):
         TRACK.make_scenario(seed=1, split="standard", params={"family": "tooluse"})
+    with pytest.raises(PluginError, match="Did you mean 'standard'"):
+        TRACK.make_scenario(seed=1, split="standrd", params={})
+    s = TRACK.make_scenario(seed=1, split="qualification", params={"preset": "challenge",
+                                                                    "demo_frames": False})
+    assert s.params["preset"] == "challenge" and s.split == "qualification"
 
 
 def test_write_inputs_writes_the_source_demonstration(tmp_path: Path) -> None:
@@ -77,10 +99,21 @@ def test_write_inputs_writes_the_source_demonstration(tmp_path: Path) -> None:
     TRACK.write_inputs(s, tmp_path)
     packet = read_demo_packet(tmp_path / "demo")
     man = packet.manifest
-    src = InstanceParams.model_validate(s.params["source"])
-    assert man.success and man.family == s.params["family"]
-    assert man.source == src.public() and "friction" not in man.source
-    assert s.params["instance"] != s.params["source"]
+    hidden = Track2Scenario.model_validate(s.params)
+    assert man.success and man.family == hidden.family and man.version == "eagc-demo/v2"
+    assert "goal" not in man.observation_spec, "the official packet states no goal"
+    assert hidden.instance != hidden.source
+
+
+def test_rgbd_only_offers_images_and_no_parts() -> None:
+    ep = TRACK.make_episode(make(2, rgbd_only=True))
+    try:
+        names = {f.name for f in ep.observation_spec}
+        assert {"rgb", "depth", "segmentation"} <= names and "parts" not in names
+        obs = ep.reset()
+        assert obs.tensors["segmentation"].dtype == np.int32
+    finally:
+        ep.close()
 
 
 def test_nothing_moves_before_execution() -> None:
@@ -110,15 +143,21 @@ def test_attempts_reset_the_instance_and_report_their_outcome() -> None:
         initial = ep.state_hash()
         for _ in range(5):
             out = ep.step("execution", {"motion": np.array([1, 0, -1, 0.5, -1], np.float32)})
-        assert ep.state_hash() != initial and out.observation.data["attempt_steps_left"] == 295
+        cap = ep.cap
+        assert ep.state_hash() != initial
+        assert out.observation.data["attempt_steps_left"] == cap - 5
         out = ep.step("execution", {"end_attempt": 1, "motion": HOLD})
         assert out.action is not None and out.action.ok and not out.action.applied
         (msg,) = [m for m in out.messages if m.type == "attempt_result"]
         assert msg.data == {"attempt": 1, "success": False, "ended_by": "agent", "steps": 5,
                             "attempts_left": 2}
         assert out.observation.data == {"attempt": 2, "attempts_left": 1,
-                                        "attempt_steps_left": 300}
-        assert ep.state_hash() == initial, "the instance is reset between attempts"
+                                        "attempt_steps_left": cap}
+        assert ep.state_hash() != initial, "a new attempt: reset, with its own jitter"
+        assert ep.step_budget("execution") == 3 * (cap + 1)
+        assert ep.step_budget("parsing") is None
+        poses = ep.poses()
+        assert {"tcp", "peg", "hole"} <= set(poses)
         assert not out.episode_over
         out = ep.step("execution", {"end_attempt": 1})
         assert not out.episode_over and out.observation.data["attempt"] == 3
@@ -147,18 +186,20 @@ def test_step_cap_ends_an_attempt_and_success_ends_the_episode() -> None:
     finally:
         ep.close()
 
-    ep = start(make(1))  # a rotation: the expert solves it on attempt 2
+    ep = start(make(1))  # a rotation: the observation expert solves it on attempt 2
     try:
-        ep.step("execution", {"end_attempt": 1})
-        expert = ScriptedExpert(ep.env)
+        out = ep.step("execution", {"end_attempt": 1})
+        obs = dict(out.observation.tensors)
+        expert = ScriptedExpert(ep.env, observed=True, obs=obs)
         for _ in range(300):
-            out = ep.step("execution", {"motion": expert()})
+            out = ep.step("execution", {"motion": expert(obs)})
+            obs = dict(out.observation.tensors)
             if out.episode_over:
                 break
         assert out.episode_over and out.end_reason == "success"
         assert out.messages[0].data["success"] is True
         o = ep.outcome()
-        assert o["success_attempt"] == 2 and o["best_progress"] == 1.0
+        assert o["success_attempt"] == 2 and o["attempts"][1]["peak_progress"] == 1.0
         assert [a["ended_by"] for a in o["attempts"]] == ["agent", "success"]
         assert o["drops"] == 0 and o["excess_force_steps"] == 0
         events = ep.on_stage_end("execution", ended_by="episode_over", payload={})

@@ -1,4 +1,5 @@
-"""Demonstration packets: write, read back, replay, broken packets; the comparison picture."""
+"""Demonstration packets (eagc-demo/v2): write, read back, replay, what they hold and what
+they do not, broken packets; the comparison picture."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from schemas import DemoManifest
 from simhost.track2 import (
     FAMILIES,
     BenchEnv,
@@ -17,9 +19,11 @@ from simhost.track2 import (
     read_demo_packet,
     render_attempt_vs_demo,
     sample_instance,
+    split_config,
     task_truth,
     write_demo_packet,
 )
+from simhost.track2._demo import coarse_stages
 from simhost.track2._raster import decode_png
 
 
@@ -31,19 +35,23 @@ def packet(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.mark.parametrize("family", FAMILIES)
-def test_round_trip(family: str, tmp_path: Path) -> None:
+@pytest.mark.parametrize("split", ["dev", "standard"])
+def test_round_trip(family: str, split: str, tmp_path: Path) -> None:
     params = sample_instance(family, 30)
-    written = write_demo_packet(tmp_path / "p", params, seed=0)
+    bench = split_config(split).bench
+    written = write_demo_packet(tmp_path / "p", params, seed=0, config=bench)
     pk = read_demo_packet(tmp_path / "p")
     man = pk.manifest
-    assert man == written and man.success and man.version == "eagc-demo/v1"
-    assert man.family == family and man.source == params.public()
-    assert man.stage_names == task_truth(params)["stages"]
+    assert man == written and man.success and man.version == "eagc-demo/v2"
+    assert man.family == family
+    assert man.stage_names == list(task_truth(params).stages)
     t = man.num_steps
+    assert set(pk.arrays) == {"actions", *(f"obs_{k}" for k in man.observation_spec)}
+    assert ("obs_goal" in pk.arrays) == (split == "dev"), "a goal only where the split states it"
     assert pk.arrays["actions"].shape == (t, 5)
     assert pk.arrays["obs_proprio"].shape == (t + 1, 7)
     assert pk.arrays["obs_parts"].shape[1:] == tuple(man.observation_spec["parts"].shape)
-    # key stages tile the run in order, ending where the task is done
+    # key stages tile the run in order, with boundaries on the annotator's grid
     assert man.key_stages[0].start == 0
     assert [k.name for k in man.key_stages] == sorted(
         (k.name for k in man.key_stages), key=man.stage_names.index
@@ -54,8 +62,35 @@ def test_round_trip(family: str, tmp_path: Path) -> None:
     assert any(e.event == "grasped" for e in man.events)
     assert not any(e.event == "dropped" for e in man.events)
     assert all(0 < e.step <= t for e in man.events)
-    raw = json.loads((tmp_path / "p" / "manifest.json").read_text())
-    assert "friction" not in raw["source"] and "seed" not in json.dumps(raw)
+    goal = [e for e in man.events if e.value is not None]
+    assert goal and all(e.event in ("inserted", "turned", "placed", "opened", "closed",
+                                    "pressed", "aligned") for e in goal)
+    raw = (tmp_path / "p" / "manifest.json").read_text()
+    secrets = ["source", "friction", "seed", "progress", "reward"]
+    if split != "dev":
+        secrets.append('"goal"')
+    for secret in secrets:
+        assert secret not in raw, secret
+    assert DemoManifest.model_validate_json(raw) == man  # what an agent reads
+
+
+def test_coarse_stage_boundaries_are_rounded_but_ordered() -> None:
+    names = ["reach", "grasp", "turn", "release"]
+    stages = [0] * 23 + [1] * 2 + [2] * 31 + [3] * 9 + [-1]
+    ks = coarse_stages(stages, names, 10)
+    assert [(k.name, k.start, k.end) for k in ks] == [
+        ("reach", 0, 20), ("grasp", 20, 21), ("turn", 21, 60), ("release", 60, 65)]
+
+
+def test_official_packet_observations_are_noisy(tmp_path: Path) -> None:
+    params = sample_instance("insertion", 3)
+    write_demo_packet(tmp_path / "dev", params, seed=2)
+    write_demo_packet(tmp_path / "std", params, seed=2, config=split_config("standard").bench)
+    dev, std = (read_demo_packet(tmp_path / k).arrays["obs_parts"] for k in ("dev", "std"))
+    hole_dev, hole_std = dev[:, 1, 1:4], std[:, 1, 1:4]
+    assert np.ptp(hole_dev, axis=0).max() < 1e-9, "dev: exact, the hole never moves"
+    assert np.ptp(hole_std, axis=0).max() > 0.001, "official: measured with noise"
+    assert np.all(std[:, :, 8] == 0.0), "no joint readings"
 
 
 def test_replaying_the_demo_actions_reproduces_it(packet: Path) -> None:
@@ -69,12 +104,16 @@ def test_replaying_the_demo_actions_reproduces_it(packet: Path) -> None:
     assert np.array_equal(obs["parts"], pk.arrays["obs_parts"][-1])
 
 
-def test_frames_are_pngs(packet: Path) -> None:
+def test_frames_are_pngs_with_depth(packet: Path) -> None:
     pk = read_demo_packet(packet)
     paths = pk.frame_paths()
-    assert len(paths) >= 10 and pk.manifest.frames is not None
+    f = pk.manifest.frames
+    assert len(paths) >= 10 and f is not None and f.depth
     img = decode_png(paths[0].read_bytes())
-    assert img.shape == (pk.manifest.frames.height, pk.manifest.frames.width, 3)
+    assert img.shape == (f.height, f.width, 3)
+    depth = pk.arrays["frame_depth"]
+    assert depth.shape == (len(f.steps), f.height, f.width)
+    assert 0.2 < float(depth.min()) < float(depth.max()) <= 10.0  # background clipped at 10 m
 
 
 def test_refuses_to_overwrite(packet: Path) -> None:
@@ -126,7 +165,7 @@ def test_broken_packets_give_clear_errors(packet: Path, tmp_path: Path) -> None:
 
     bad = _broken(packet, tmp_path)
     _edit_manifest(bad, family="juggling")
-    with pytest.raises(DemoPacketError, match="does not match eagc-demo/v1"):
+    with pytest.raises(DemoPacketError, match="does not match eagc-demo/v2"):
         read_demo_packet(bad)
     shutil.rmtree(bad)
 

@@ -1,4 +1,6 @@
-"""BenchEnv: gymnasium conformance, spaces, determinism, state, action validation, RGB-D."""
+"""BenchEnv: gymnasium conformance, spaces, determinism, state, action validation, RGB-D,
+and the official splits' observation channel (noise, bias, rate, latency, occlusion, symmetry,
+no joint readings, no goal) and per-reset jitter."""
 
 from __future__ import annotations
 
@@ -10,13 +12,19 @@ from gymnasium.utils.env_checker import check_env
 
 from simhost.track2 import (
     FAMILIES,
+    SPLITS,
     BenchEnv,
     InstanceParamsError,
+    SplitConfigError,
     StateError,
+    default_source,
+    env_id,
     expert_policy,
     register_envs,
     sample_instance,
 )
+from simhost.track2._bench import yaw_of
+from simhost.track2._observe import canonical_yaw
 
 
 def _run(env: BenchEnv, actions: np.ndarray) -> list[str]:
@@ -28,21 +36,33 @@ def _run(env: BenchEnv, actions: np.ndarray) -> list[str]:
 
 
 @pytest.mark.parametrize("family", FAMILIES)
-def test_check_env_through_the_registry(family: str) -> None:
+@pytest.mark.parametrize("split", ["dev", "standard"])
+def test_check_env_through_the_registry(family: str, split: str) -> None:
     ids = register_envs()
-    env_id = f"eagc/Bench-{family.title().replace('_', '')}-v0"
-    assert env_id in ids and register_envs() == ids  # idempotent
-    env = gym.make(env_id, render_mode="rgb_array", image_size=(48, 64))
+    assert env_id(family) in ids and register_envs() == ids  # idempotent
+    env = gym.make(env_id(family), render_mode="rgb_array", image_size=(48, 64), split=split,
+                   instance_seed=3)
     try:
         check_env(env.unwrapped)
-        assert isinstance(env.unwrapped, BenchEnv) and env.unwrapped.params.family == family
+        base = env.unwrapped
+        assert isinstance(base, BenchEnv) and base.params.family == family
+        assert base.config == SPLITS[split].bench.model_copy(update={
+            "observation": base.config.observation.model_copy(update={"image_size": (48, 64)})})
+        assert ("goal" in base.observation_space.spaces) == (split == "dev")
+        assert ("rgb" in base.observation_space.spaces) == (split != "dev")
     finally:
         env.close()
 
 
+def test_unknown_split_says_which_exist() -> None:
+    with pytest.raises(SplitConfigError, match="Did you mean 'standard'"):
+        BenchEnv(family="rotation", split="standrd")
+
+
 @pytest.mark.parametrize("family", FAMILIES)
-def test_observations_stay_in_their_space(family: str) -> None:
-    env = BenchEnv(sample_instance(family, 2))
+@pytest.mark.parametrize("split", ["dev", "challenge"])
+def test_observations_stay_in_their_space(family: str, split: str) -> None:
+    env = BenchEnv(sample_instance(family, 2), split=split)
     obs, info = env.reset(seed=0)
     assert env.observation_space.contains(obs)
     assert {"progress", "success", "stage", "contact_force", "sim_warnings"} <= set(info)
@@ -80,7 +100,7 @@ def test_reset_restores_the_initial_state_exactly() -> None:
 
 
 def test_get_state_set_state_continues_bit_exactly() -> None:
-    env = BenchEnv(sample_instance("opening", 1))
+    env = BenchEnv(sample_instance("opening", 1), split="standard")
     env.reset(seed=0)
     for _ in range(15):
         env.step(expert_policy(env))
@@ -94,7 +114,7 @@ def test_get_state_set_state_continues_bit_exactly() -> None:
     other = BenchEnv(sample_instance("opening", 2))
     with pytest.raises(StateError, match="belongs to instance"):
         other.set_state(saved)
-    with pytest.raises(StateError, match="EAGCT2S1"):
+    with pytest.raises(StateError, match="EAGCT2S2"):
         env.set_state(b"garbage")
     with pytest.raises(StateError, match="corrupt|size"):
         env.set_state(saved[:-8] + b"\x00" * 3)
@@ -128,10 +148,25 @@ def test_rgbd_observation() -> None:
     env = BenchEnv(sample_instance("tool_use", 1), render_rgbd=True, image_size=(36, 48))
     obs, _ = env.reset(seed=0)
     assert obs["rgb"].shape == (36, 48, 3) and obs["rgb"].dtype == np.uint8
-    assert obs["depth"].shape == (36, 48, 1) and obs["depth"].dtype == np.float32
+    assert obs["depth"].shape == (36, 48) and obs["depth"].dtype == np.float32
     assert obs["rgb"].std() > 5  # a real picture, not a blank
     assert 0.2 < float(obs["depth"].min()) < float(obs["depth"].max()) <= 10.0
     assert env.observation_space.contains(obs)
+    env.close()
+
+
+def test_rgbd_only_with_segmentation() -> None:
+    from simhost.track2 import split_config
+
+    bench = split_config("standard").bench
+    cfg = bench.model_copy(update={"observation": bench.observation.model_copy(
+        update={"parts": False, "segmentation": True, "image_size": (48, 64)})})
+    env = BenchEnv(sample_instance("insertion", 1), config=cfg)
+    obs, _ = env.reset(seed=0)
+    assert "parts" not in obs and {"rgb", "depth", "segmentation"} <= set(obs)
+    seg = obs["segmentation"]
+    assert seg.shape == (48, 64) and seg.dtype == np.int32 and env.observation_space.contains(obs)
+    assert {1, 2} <= set(np.unique(seg).tolist()), "the peg and the hole are in view"
     env.close()
 
 
@@ -167,3 +202,83 @@ def test_a_dropped_part_is_annotated() -> None:
         dropped += env.step(np.array([0, 0, 0, 0, 1], dtype=np.float32))[4]["events"]
     assert {"event": "released", "part": "peg"} in dropped
     assert {"event": "dropped", "part": "peg"} in dropped
+
+
+def _measured(env: BenchEnv, obs: dict, row: int) -> tuple[np.ndarray, float]:
+    r = obs["parts"][row]
+    return r[1:4].astype(float), yaw_of(r[4:8].astype(float))
+
+
+def test_official_channel_is_noisy_biased_delayed_and_slower() -> None:
+    env = BenchEnv(default_source("insertion"), split="standard")
+    cfg = env.config.observation
+    assert cfg.period_steps == 2 and cfg.latency_steps == 1 and not cfg.joint_readings
+    errors, ages = [], []
+    obs, _ = env.reset(seed=4, options={"bias_seed": 9})
+    for k in range(200):
+        prev = obs["parts"].copy()
+        obs, *_ = env.step(np.zeros(5, np.float32))  # nothing moves: the hole stays put
+        pos, _ = _measured(env, obs, 1)
+        errors.append(pos - env.task.parts()[1, 1:4])
+        ages.append(float(obs["parts"][1, 9]))
+        if k % 2 == 0:  # measured every 2 steps only: in between the row stays as it was
+            assert np.array_equal(obs["parts"][:, :9], prev[:, :9])
+    err = np.asarray(errors)
+    assert 0.0003 < float(err[:, 0].std()) < 0.003, "about a millimetre of noise"
+    assert np.all(np.isin(np.round(np.asarray(ages) * 20), [1, 2])), "latency 1, period 2"
+    assert float(np.abs(err).max()) < 0.02
+    # the bias stays for the episode: the same bias seed, the same mean error
+    again = BenchEnv(default_source("insertion"), split="standard")
+    obs2, _ = again.reset(seed=5, options={"bias_seed": 9})
+    errs2 = []
+    for _ in range(200):
+        obs2, *_ = again.step(np.zeros(5, np.float32))
+        errs2.append(_measured(again, obs2, 1)[0] - again.task.parts()[1, 1:4])
+    assert np.allclose(err.mean(axis=0), np.asarray(errs2).mean(axis=0), atol=0.0008)
+    assert not np.array_equal(err, np.asarray(errs2)), "new noise for another reset seed"
+    assert np.all(obs["parts"][:, 8] == 0.0) and "goal" not in obs
+
+
+def test_symmetric_parts_report_yaw_modulo_their_symmetry() -> None:
+    params = default_source("rotation").model_copy(update={
+        "geometry": {**default_source("rotation").geometry, "kind": "nut"},
+        "pose": {**default_source("rotation").pose, "init_angle": 1.3}})
+    env = BenchEnv(params, split="standard")
+    obs, _ = env.reset(seed=0)
+    _, yaw = _measured(env, obs, 0)
+    period = np.pi / 3
+    assert -period / 2 - 0.1 <= yaw <= period / 2 + 0.1
+    assert abs(canonical_yaw(1.3, period) - yaw) < 0.15
+    dev = BenchEnv(params)
+    assert abs(_measured(dev, dev.reset(seed=0)[0], 0)[1] - 1.3) < 1e-6
+
+
+def test_a_part_the_gripper_hides_keeps_its_last_measurement() -> None:
+    env = BenchEnv(default_source("rotation"), split="standard")
+    obs, _ = env.reset(seed=0)
+    ages, stale = [], 0
+    for _ in range(60):
+        prev = obs["parts"][0].copy()
+        obs, _, _, _, info = env.step(expert_policy(env))
+        ages.append(float(obs["parts"][0, 9]))
+        if ages[-1] > 0.3:  # hidden: the row still shows its last measurement
+            assert np.array_equal(obs["parts"][0, :9], prev[:9])
+            stale += 1
+    assert stale >= 5, "the knob was hidden under the grasping hand for a while"
+    assert min(ages) < 0.06  # fresh: only the latency (one step) old
+
+
+def test_every_reset_jitters_the_parts_from_its_seed() -> None:
+    env = BenchEnv(default_source("assembly"), split="standard")
+    env.reset(seed=1)
+    a = env.task.parts()[:, 1:3].copy()
+    env.reset(seed=1)
+    assert np.array_equal(a, env.task.parts()[:, 1:3]), "same seed, same jitter"
+    env.reset(seed=2)
+    moved = np.linalg.norm(env.task.parts()[:, 1:3] - a, axis=1)
+    assert 0.0005 < float(moved[:3].max()) < 0.02
+    dev = BenchEnv(default_source("assembly"))
+    dev.reset(seed=1)
+    b = dev.task.parts()[:, 1:3].copy()
+    dev.reset(seed=2)
+    assert np.array_equal(b, dev.task.parts()[:, 1:3]), "dev: exactly the same state"

@@ -14,9 +14,12 @@ from simhost.track2 import (
     PARAM_TABLES,
     InstanceParams,
     InstanceParamsError,
+    TaskTruth,
+    VariationConfig,
     default_source,
     instance_distance,
     sample_instance,
+    split_config,
     task_truth,
 )
 
@@ -31,23 +34,49 @@ def test_same_seed_same_instance(family: str) -> None:
 
 
 @pytest.mark.parametrize("family", FAMILIES)
-def test_variation_ranges_respected(family: str) -> None:
+@pytest.mark.parametrize("wide", [False, True])
+def test_variation_ranges_respected(family: str, wide: bool) -> None:
     specs = PARAM_TABLES[family]
     seen: dict[str, set[object]] = {s.name: set() for s in specs}
+    v = VariationConfig(difficulty=1.0, wide=wide)
     for seed in range(60):
-        p = sample_instance(family, seed, difficulty=1.0)
+        p = sample_instance(family, seed, variation=v)
         for spec in specs:
-            v = p.value(spec.name)
-            seen[spec.name].add(v)
+            value = p.value(spec.name)
+            seen[spec.name].add(value)
             if spec.categorical:
-                assert v in spec.choices, (spec.name, v)
+                assert value in spec.allowed(wide), (spec.name, value)
             else:
-                assert spec.lo <= float(v) <= spec.hi, (spec.name, v)  # type: ignore[arg-type]
-    for spec in specs:  # every parameter actually varies, every choice shows up
+                lo, hi = spec.bounds(wide)
+                assert lo <= float(value) <= hi, (spec.name, value)  # type: ignore[arg-type]
+    for spec in specs:  # every parameter varies where its range allows, every choice shows up
         if spec.categorical:
-            assert seen[spec.name] == set(spec.choices), spec.name
-        else:
+            assert seen[spec.name] == set(spec.allowed(wide)), spec.name
+        elif spec.bounds(wide)[1] > spec.bounds(wide)[0]:
             assert len(seen[spec.name]) > 30, spec.name
+
+
+def test_official_splits_have_new_shapes_and_tighter_ranges() -> None:
+    wide = VariationConfig(difficulty=1.0, wide=True)
+    shapes = {sample_instance("insertion", s, variation=wide).value("shape") for s in range(60)}
+    assert "hex" in shapes
+    dev = {sample_instance("insertion", s, difficulty=1.0).value("shape") for s in range(60)}
+    assert "hex" not in dev
+    clearances = [sample_instance("insertion", s, variation=wide).f("clearance")
+                  for s in range(60)]
+    assert min(clearances) < 0.001 and max(clearances) <= 0.003
+
+
+def test_official_goals_are_the_demonstrations() -> None:
+    v = split_config("challenge").variation
+    src = sample_instance("rotation", 4, variation=v.model_copy(update={"goal_from_source": False}))
+    flips = 0
+    for s in range(40):
+        hidden = sample_instance("rotation", s, source=src, variation=v)
+        assert hidden.value("turn") == src.value("turn"), "the same turn"
+        flips += hidden.value("direction") != src.value("direction")
+        assert hidden.value("init_angle") != src.value("init_angle"), "another start"
+    assert 5 <= flips <= 30, "the turning direction switches now and then"
 
 
 @pytest.mark.parametrize("family", FAMILIES)
@@ -67,29 +96,31 @@ def test_difficulty_zero_is_the_source_and_distance_grows(family: str) -> None:
 
 def test_distance_formula_by_hand() -> None:
     a = default_source("insertion")
-    geometry = dict(a.geometry, clearance=0.006)  # (0.006 - 0.004) / 0.004 = 0.5 of its range
+    geometry = dict(a.geometry, clearance=0.003)  # (0.003 - 0.0025) / 0.0025 = 0.2 of its range
     b = a.model_copy(update={"geometry": geometry})
-    # geometry holds 6 parameters: mean 0.5 / 6; weights of present groups sum to 0.85
-    assert instance_distance(a, b) == pytest.approx(0.30 * (0.5 / 6) / 0.85)
+    # geometry holds 6 parameters: mean 0.2 / 6; weights of present groups sum to 0.85
+    assert instance_distance(a, b) == pytest.approx(0.30 * (0.2 / 6) / 0.85)
     assert instance_distance(a, default_source("rotation")) == 1.0
 
 
-def test_tool_use_mechanism_is_kept_from_the_source() -> None:
+def test_tool_use_mechanism_is_kept_from_the_source_on_dev() -> None:
     mechanisms = {sample_instance("tool_use", s).value("mechanism") for s in range(20)}
     assert mechanisms == {"press", "pull"}
     src = sample_instance("tool_use", 0)
     for s in range(20):
         hidden = sample_instance("tool_use", s, source=src, difficulty=1.0)
         assert hidden.value("mechanism") == src.value("mechanism")
+    official = split_config("standard").variation
+    switched = sum(sample_instance("tool_use", s, source=src, variation=official)
+                   .value("mechanism") != src.value("mechanism") for s in range(60))
+    assert 8 <= switched <= 30, "the official splits switch the mechanism now and then"
 
 
-def test_json_round_trip_and_public_view() -> None:
+def test_json_round_trip() -> None:
     p = sample_instance("tool_use", 4)
     again = InstanceParams.model_validate_json(p.model_dump_json())
     assert again == p
-    pub = p.public()
-    assert "friction" not in pub and pub["family"] == "tool_use" and "tools" in pub
-    json.dumps(pub)
+    json.loads(p.model_dump_json())
 
 
 def test_bad_params_say_what_is_wrong() -> None:
@@ -98,7 +129,7 @@ def test_bad_params_say_what_is_wrong() -> None:
     with pytest.raises(ValidationError, match="Did you mean 'clearance'"):
         InstanceParams.model_validate(bad)
     bad = dict(good, geometry=dict(good["geometry"], clearance=0.5))
-    with pytest.raises(ValidationError, match=r"clearance = 0.5 is outside \[0.002, 0.006\]"):
+    with pytest.raises(ValidationError, match=r"clearance = 0.5 is outside \[0.0005, 0.006\]"):
         InstanceParams.model_validate(bad)
     bad = dict(good, geometry=dict(good["geometry"], shape="hexagon"))
     with pytest.raises(ValidationError, match="choose one of"):
@@ -115,16 +146,28 @@ def test_bad_params_say_what_is_wrong() -> None:
 def test_truth_shape(family: str) -> None:
     for seed in range(6):
         truth = task_truth(sample_instance(family, seed, difficulty=1.0))
-        assert truth["version"] == "eagc-truth/v1" and truth["family"] == family
-        assert set(truth) == {"version", "family", "stages", "state_variables", "constraints",
-                              "preconditions", "success", "goal"}
-        assert len(truth["stages"]) == len(set(truth["stages"])) >= 4
-        assert set(truth["preconditions"]) <= set(truth["stages"])
-        names = {v["name"] for v in truth["state_variables"]}
-        for c in truth["success"]:
-            assert c["op"] in {">=", "<=", "==", "within"}
-            assert c["variable"] in names
-        json.dumps(truth)
+        assert isinstance(truth, TaskTruth)
+        assert truth.version == "eagc-truth/v2" and truth.family == family
+        assert len(truth.stages) == len(set(truth.stages)) >= 4
+        assert set(truth.preconditions) <= set(truth.stages)
+        names = {v.name for v in truth.state_variables}
+        for c in truth.success:
+            assert c.op in {">=", "<=", "==", "within"}
+            assert c.variable in names
+        assert TaskTruth.model_validate_json(truth.model_dump_json()) == truth
+
+
+def test_truth_states_goals_relative_to_the_start_and_the_splits_tolerance() -> None:
+    p = sample_instance("rotation", 3)
+    dev, official = task_truth(p), task_truth(p, split_config("standard").bench)
+    (turn,) = [c for c in dev.success if c.variable == "knob_turn"]
+    sign = 1 if p.value("direction") == "ccw" else -1
+    lo, hi = turn.value
+    assert (lo + hi) / 2 == pytest.approx(sign * p.f("turn"), abs=1e-5)
+    assert hi - lo == pytest.approx(2 * 0.08, abs=1e-5)
+    (turn,) = [c for c in official.success if c.variable == "knob_turn"]
+    assert turn.value[1] - turn.value[0] == pytest.approx(2 * 0.05, abs=1e-5)
+    assert official.constraint("angle_tolerance") == 0.05
 
 
 def test_light_import_has_no_mujoco() -> None:

@@ -1,0 +1,151 @@
+"""The imitation policy (T-OSVI style): one demonstration in, actions out, no world model.
+
+The policy reads the demonstration as a sequence of hand targets and attends, at every
+phase, to one part: which part a key stage's motion is relative to is *learned* offline per
+family and key stage (``train.py``: the part in whose frame the expert's targets vary least
+between instances). At run time::
+
+    target_k = pose(part_attended(k), now)  (+)  rel_k          # the demo's target, moved
+    a_t      = clip(servo(target_k - control target) + W^T [s(o_t) - s(d_k), 1], -1, 1)
+
+``rel_k`` is the demonstration's control target after its ``k``-th action in the frame of
+the attended part as the demonstration observed it; the pointer ``k`` advances when the hand
+is near ``target_k`` (the phase follows progress, not the clock); the grip is the
+demonstration's. ``W`` is a small linear correction fitted on expert rollouts. No stage is
+checked, nothing is verified, nothing is remembered between attempts. Numpy only; shared by
+the agent and the training script.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+ROWS = 6
+DIM = 3 * ROWS + 3
+DPOS, DYAW, WMAX = 0.015, 0.15, 0.09
+SCALE = np.array([DPOS, DPOS, DPOS, DYAW])
+LEAD = np.array([0.02, 0.02, 0.02, 0.3])
+LO = np.array([-0.30, -0.30, 0.003, -3.2])
+HI = np.array([0.30, 0.30, 0.30, 3.2])
+
+
+def wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def yaw_of(q: np.ndarray) -> float:
+    w, x, y, z = (float(v) for v in q)
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def state(proprio: np.ndarray, parts: np.ndarray) -> np.ndarray:
+    """``s(o)``: every part's position relative to the hand (hand frame), opening, contacts."""
+    p = np.asarray(proprio, dtype=float)
+    rows = np.zeros((ROWS, 10))
+    parts = np.asarray(parts, dtype=float)
+    rows[: min(ROWS, len(parts))] = parts[:ROWS]
+    c, s = math.cos(p[3]), math.sin(p[3])
+    d = rows[:, 1:4] - p[:3]
+    rel = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], d[:, 2]], axis=1)
+    rel *= rows[:, :1] > 0.5
+    return np.concatenate([rel.ravel(), [p[4] / WMAX, p[5], p[6]]])
+
+
+def features(current: np.ndarray, demo: np.ndarray) -> np.ndarray:
+    return np.append(current - demo, 1.0)
+
+
+def targets(proprio: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    """The demonstration's control targets after each action (the bench's update rule)."""
+    hand = np.asarray(proprio, dtype=float)[:, :4]
+    t = hand[0].copy()
+    out = []
+    for k, a in enumerate(np.asarray(actions, dtype=float)):
+        t = np.clip(np.clip(t + a[:4] * SCALE, hand[k] - LEAD, hand[k] + LEAD), LO, HI)
+        out.append(t.copy())
+    return np.asarray(out)
+
+
+def part_pose(row: np.ndarray) -> np.ndarray:
+    return np.array([row[1], row[2], row[3], yaw_of(row[4:8])])
+
+
+def relative(target: np.ndarray, part: np.ndarray) -> np.ndarray:
+    """A hand target in a part's frame."""
+    c, s = math.cos(part[3]), math.sin(part[3])
+    d = target[:2] - part[:2]
+    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], target[2] - part[2],
+                     wrap(target[3] - part[3])])
+
+
+def absolute(rel: np.ndarray, part: np.ndarray) -> np.ndarray:
+    c, s = math.cos(part[3]), math.sin(part[3])
+    return np.array([part[0] + c * rel[0] - s * rel[1], part[1] + s * rel[0] + c * rel[1],
+                     part[2] + rel[2], part[3] + rel[3]])
+
+
+def stage_of(key_stages: list[tuple[str, int, int]], k: int) -> str:
+    for name, a, b in key_stages:
+        if a <= k < b:
+            return name
+    return key_stages[-1][0] if key_stages else ""
+
+
+def stage_kind(name: str) -> str:
+    """A key stage's kind, without its part suffix (``reach_part2`` -> ``reach``)."""
+    return name.split("_part")[0]
+
+
+class Policy:
+    """One demonstration's policy, for one attempt at a time."""
+
+    def __init__(self, weights: np.ndarray, attend: dict[str, int], proprio: np.ndarray,
+                 parts: np.ndarray, actions: np.ndarray,
+                 key_stages: list[tuple[str, int, int]]) -> None:
+        self.w = weights
+        self.actions = np.asarray(actions, dtype=float)
+        self.states = np.stack([state(p, q) for p, q in zip(proprio, parts, strict=True)])
+        tgt = targets(proprio, actions)
+        self.rows = []
+        self.rel = []
+        for k in range(len(actions)):
+            row = attend.get(stage_kind(stage_of(key_stages, k)), 0)
+            if parts[k, row, 0] < 0.5:
+                row = 0
+            self.rows.append(row)
+            self.rel.append(relative(tgt[k], part_pose(parts[k, row])))
+        self.k = 0
+        self.target: np.ndarray | None = None
+        self.seen: dict[int, list[np.ndarray]] = {}
+
+    def reset(self) -> None:
+        self.k, self.target, self.seen = 0, None, {}
+
+    @property
+    def done(self) -> bool:
+        return self.k >= len(self.actions) - 1
+
+    def __call__(self, obs: dict[str, Any]) -> np.ndarray:
+        prop = np.asarray(obs["proprio"], dtype=float)
+        parts = np.asarray(obs["parts"], dtype=float)
+        if self.target is None:
+            self.target = prop[:4].copy()
+        row = self.rows[self.k]
+        if parts[row, 9] <= 0.2:  # a fresh measurement: average the part's pose a little
+            self.seen.setdefault(row, []).append(part_pose(parts[row]))
+        pose = np.mean(self.seen[row][-8:], axis=0) if row in self.seen else part_pose(
+            parts[row])
+        goal = absolute(self.rel[self.k], pose)
+        step = np.clip(goal - self.target, -SCALE, SCALE)
+        step[3] = float(np.clip(wrap(goal[3] - self.target[3]), -DYAW, DYAW))
+        a = np.append(step / SCALE, self.actions[self.k, 4])
+        a += features(state(prop, parts), self.states[self.k]) @ self.w
+        a = np.clip(a, -1.0, 1.0)
+        self.target = np.clip(np.clip(self.target + a[:4] * SCALE, prop[:4] - LEAD,
+                                      prop[:4] + LEAD), LO, HI)
+        if np.all(np.abs(goal - self.target) < [0.003, 0.003, 0.003, 0.05]):
+            self.k = min(len(self.actions) - 1, self.k + 1)
+        return a.astype(np.float32)

@@ -63,6 +63,10 @@ def host_config(episode: str, endpoints: list[str]) -> zenoh.Config:
     conf.insert_json5("listen/endpoints", json.dumps(endpoints))
     conf.insert_json5("connect/endpoints", "[]")
     conf.insert_json5("adminspace/enabled", "false")
+    # No shared memory: a sandboxed agent has no shared IPC anyway, and each session that
+    # negotiated it left the serving process holding a segment in /dev/shm and an fd (seen
+    # in the soak benchmark's long-lived Ray workers).
+    conf.insert_json5("transport/shared_memory/enabled", "false")
     allowed = f"{KEY_ROOT}/{check_episode_id(episode)}/agent/**"
     acl = {
         "enabled": True,

@@ -273,13 +273,15 @@ def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[Non
 
     The embedded Ray is always a new cluster of its own (``address="local"``: never one
     that ``ray start`` left on the machine) in its own temp dir under ``$RAY_TMPDIR`` (or
-    /tmp), removed when the campaign ends.
+    /tmp), removed when the campaign ends; should the driver be killed, a sentinel process
+    (``orchestrator._raysentinel``) ends what is left of that Ray and removes the dir.
     """
     import shutil
     import tempfile
 
     import ray
 
+    from orchestrator import _raysentinel as raysentinel
     from orchestrator._fanout import SLOT
 
     owned = not ray.is_initialized()
@@ -296,6 +298,8 @@ def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[Non
                                     dir=os.environ.get("RAY_TMPDIR") or "/tmp")
             ray.init(address="local", num_cpus=cpus, resources={SLOT: float(options.workers)},
                      include_dashboard=False, _temp_dir=temp, **quiet)
+            # Should this driver be killed, what it started of Ray goes with it.
+            raysentinel.start(os.getpid(), temp)
     lost = False
     try:
         if not ray.cluster_resources().get(SLOT):

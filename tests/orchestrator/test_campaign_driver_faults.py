@@ -42,10 +42,21 @@ def _running(folder: Path, name: str, n: int) -> Any:
         filters={"label": f"eagc.campaign={name}", "status": "running"})) >= n
 
 
+def _holding(folder: Path) -> list[int]:
+    """Pids with a file open under ``folder`` (Ray's agents rename themselves, so their
+    command lines do not name it)."""
+    from orchestrator._raysentinel import _holds
+
+    return [int(d.name) for d in Path("/proc").iterdir()
+            if d.name.isdigit() and _holds(int(d.name), str(folder))]
+
+
 def test_a_dead_drivers_containers_are_gone_within_a_minute(docker_engine: Any,
                                                              ray_tmp: Path) -> None:  # noqa: F811
     """SIGKILL of the driver alone, nothing run afterwards: its containers (episodes of
-    minutes) are removed within a minute by their episode watchers, unattended."""
+    minutes) are removed within a minute by their episode watchers, and what it started of
+    its embedded Ray (the dashboard and runtime-env agents lived on for minutes) by its
+    sentinel, with Ray's temp dir, unattended."""
     build_campaign_images(docker_engine, "waiting")
     folder = short_dir("eagc-dd-")
     name = "dead-driver"
@@ -60,6 +71,10 @@ def test_a_dead_drivers_containers_are_gone_within_a_minute(docker_engine: Any,
         time.sleep(1)
     left = [c.name for c in _containers(name)]
     assert left == [], f"still there a minute after the driver died: {left}"
+    while (_holding(ray_tmp) or any(ray_tmp.iterdir())) and time.time() - killed < 60:
+        time.sleep(1)
+    assert _holding(ray_tmp) == [], "Ray processes outlived their driver by a minute"
+    assert list(ray_tmp.iterdir()) == [], "the embedded Ray's temp dir was left behind"
 
 
 def test_a_full_disk_stops_the_campaign_cleanly(docker_engine: Any, ray_tmp: Path  # noqa: F811

@@ -36,6 +36,11 @@ SIZES = {"table": 0.5, "counter": 0.55, "shelf": 0.4, "bed": 0.9, "desk": 0.45, 
          "cabinet": 0.4, "drawer": 0.4, "fridge": 0.45, "bin": 0.3}
 PATIENCE = 150
 ROOM_PATIENCE = 40
+LOOK_AROUND = 6
+"""Steps of turning in place on entering a room (45 degrees a step, 120 degrees seen)."""
+UNLIKELY = 0.25
+"""A room type holding what is wanted less than this often, relative to the likeliest
+type, is left at once."""
 CLOSE = 2.2
 """Closer than this, what rests on a piece of furniture would be in sight."""
 
@@ -129,8 +134,8 @@ class Agent:
         this passes close to every surface), and out through a doorway in sight once this
         room has been searched for a while or is not the room the goal names."""
         doors = [d for d in dets if d["kind"] == "door" and d["id"] not in self.locked_now]
-        leave = self.in_room > ROOM_PATIENCE or (
-            room_wanted is not None and self.room_type and self.room_type != room_wanted)
+        leave = self.in_room > ROOM_PATIENCE or (self.goals and self.current < len(
+            self.goals) and self.leaving(obs))
         if leave and doors and not int(obs["collided"][0]):
             door = min(doors, key=lambda d: d["dist"])
             if door["state"] == "closed":
@@ -151,6 +156,10 @@ class Agent:
             return float(scan[int(round(angle / deg)) % n])
 
         if int(obs["collided"][0]):  # turn in place toward the freer side
+            if self.last is not None and self.last.get("primitive") == "move" and \
+                    float(self.last["move"][0]) <= 0.0:  # a turn (or backing up) hit: back off
+                return {"primitive": "move", "move": [-0.6, 0.0]
+                        if float(self.last["move"][0]) == 0.0 else [0.4, 1.0]}
             left = sum(ray(a) for a in range(30, 151, 30))
             right_side = sum(ray(-a) for a in range(30, 151, 30))
             return {"primitive": "move", "move": [0.0, 1.0 if left >= right_side else -1.0]}
@@ -164,7 +173,10 @@ class Agent:
         if front < 0.85:
             return {"primitive": "move", "move": [0.0, 1.0]}  # blocked: turn left
         if right > 1.6 and front_right > 1.4:
-            return {"primitive": "move", "move": [min(1.0, (front - 0.6) / 0.5), -1.0]}
+            if min(ray(-120), ray(-135), ray(-150)) < 1.6:  # a wall just passed: round it
+                return {"primitive": "move", "move": [min(1.0, (front - 0.6) / 0.5), -1.0]}
+            # no wall on the right at all (open floor): straight on until one is met
+            return {"primitive": "move", "move": [min(1.0, (front - 0.6) / 0.5), 0.0]}
         steer = max(-0.5, min(0.5, (0.8 - right) * 0.8))  # keep the wall 0.8 m away
         return {"primitive": "move", "move": [min(1.0, (front - 0.6) / 0.5), steer]}
 
@@ -212,7 +224,7 @@ class Agent:
         """The piece of furniture in view most likely to hold what is wanted (learned priors
         over furniture category and this room's type), among those ahead and not yet close
         (close up, what is on it would be in sight)."""
-        category, room = self.wanted_now(obs)
+        category, room, on = self.wanted_now(obs)
         if room is not None and self.room_type and self.room_type != room:
             return None
         best, best_p = None, 0.04
@@ -223,18 +235,21 @@ class Agent:
                             else CLOSE):
                 continue
             p = self.priors.where(category, d["category"], self.room_type or None)
+            if on is not None:  # the instruction says what it rests on
+                p = 1.0 if d["category"] == on else 0.0
             if p / (1 + d["dist"] / 3) > best_p:
                 best, best_p = d, p / (1 + d["dist"] / 3)
         return best
 
-    def wanted_now(self, obs: dict) -> tuple[str, str | None]:
-        """The category needed next and the room the instruction names for it."""
+    def wanted_now(self, obs: dict) -> tuple[str, str | None, str | None]:
+        """The category needed next, the room the instruction names for it and what the
+        instruction says it rests on."""
         goal = self.goals[self.current]
         if int(obs["held"][0]) < 0:
             ref = goal["item"] if goal["kind"] == "place" else goal["tool"]
         else:
             ref = goal["dest"] if goal["kind"] == "place" else goal["target"]
-        return ref["category"], ref.get("room")
+        return ref["category"], ref.get("room"), ref.get("on")
 
     def act(self, obs: dict, dets: list[dict], stage: str) -> dict[str, Any]:
         if self.drop and int(obs["held"][0]) >= 0:  # the tool just used is not needed now
@@ -251,6 +266,9 @@ class Agent:
                     if place["dist"] <= SIZES.get(place["category"], 0.5) + 0.55:
                         return {"primitive": "open", "target": place["id"]}
                 return self.toward(obs, place["bearing"], place["dist"])
+        if (thing is None and self.in_room < LOOK_AROUND and not int(obs["collided"][0])
+                and not self.leaving(obs)):
+            return {"primitive": "move", "move": [0.0, 1.0]}  # just in: look around
         if thing is None or int(obs["collided"][0]):
             return self.wander(obs, dets, self.room_wanted(obs))
         if self.stuck >= 3:  # the way to it is blocked: search on
@@ -263,6 +281,15 @@ class Agent:
         if thing["dist"] <= reach:
             return {"primitive": primitive, "target": thing["id"], **extra}
         return self.toward(obs, thing["bearing"], thing["dist"])
+
+    def leaving(self, obs: dict) -> bool:
+        """Whether the goal names another room than this one, or names none and what is
+        wanted is unlikely in a room of this type (the learned priors)."""
+        room = self.room_wanted(obs)
+        if room is not None:
+            return bool(self.room_type and self.room_type != room)
+        category, _, _ = self.wanted_now(obs)
+        return self.priors.room_share(category, self.room_type or None) < UNLIKELY
 
     def room_wanted(self, obs: dict) -> str | None:
         """The room type the goal names for what is needed next, if any."""
@@ -277,9 +304,16 @@ class Agent:
         result = ts.observation["action_result"]
         self.locked_now = set()
         self.unusable = set()
+        self.nudge = None
         if self.last is None or result.get("ok", True):
             return
         reason, target = result.get("reason"), self.last.get("target")
+        if reason == "blocked_by_robot":  # standing in the door's way: step back
+            self.nudge = {"primitive": "move", "move": [-0.6, 0.0]}
+            return
+        if reason == "out_of_reach" and self.last["primitive"] in ("open", "close"):
+            self.nudge = {"primitive": "move", "move": [0.4, 0.0]}
+            return
         if reason == "locked":
             self.locked_now = {target}
             kind = "door_lock"
@@ -298,6 +332,7 @@ class Agent:
         ts: TimeStep = env.reset()
         self.locked_now: set[int] = set()
         self.unusable: set[int] = set()
+        self.nudge: dict[str, Any] | None = None
         while not ts.episode_over:
             obs = ts.observation
             self.in_room += 1
@@ -310,7 +345,10 @@ class Agent:
                     self.goals = parse(m.data["text"])
             self.failure(ts, ts.stage)
             dets = self.seen(obs)
-            if ts.stage == "exploration":
+            if self.nudge is not None and ts.stage != "planning" and not (
+                    ts.steps_left is not None and ts.steps_left <= 1):
+                action = self.nudge
+            elif ts.stage == "exploration":
                 self.write_model(obs)
                 if ts.steps_left is not None and ts.steps_left <= 1:
                     ts = env.end_stage()

@@ -173,10 +173,7 @@ class Agent:
         if front < 0.85:
             return {"primitive": "move", "move": [0.0, 1.0]}  # blocked: turn left
         if right > 1.6 and front_right > 1.4:
-            if min(ray(-120), ray(-135), ray(-150)) < 1.6:  # a wall just passed: round it
-                return {"primitive": "move", "move": [min(1.0, (front - 0.6) / 0.5), -1.0]}
-            # no wall on the right at all (open floor): straight on until one is met
-            return {"primitive": "move", "move": [min(1.0, (front - 0.6) / 0.5), 0.0]}
+            return {"primitive": "move", "move": [min(1.0, (front - 0.6) / 0.5), -1.0]}
         steer = max(-0.5, min(0.5, (0.8 - right) * 0.8))  # keep the wall 0.8 m away
         return {"primitive": "move", "move": [min(1.0, (front - 0.6) / 0.5), steer]}
 
@@ -259,6 +256,17 @@ class Agent:
         else:
             self.drop = False
             thing, primitive, extra = self.wanted(obs, dets)
+        # what it was approaching stays its target while in view (a look-alike reading of
+        # it now and then does not turn it away); out of view, it is forgotten
+        key = (self.current, int(obs["held"][0]))
+        if thing is not None:
+            self.lock = (key, thing["id"], primitive, extra)
+        elif self.lock is not None and self.lock[0] == key:
+            again = [d for d in dets if d["id"] == self.lock[1]]
+            if again:
+                thing, primitive, extra = again[0], self.lock[2], self.lock[3]
+            else:
+                self.lock = None
         if thing is None and not int(obs["collided"][0]):
             place = self.promising(obs, dets)
             if place is not None:  # go and look at it from close up
@@ -333,6 +341,7 @@ class Agent:
         self.locked_now: set[int] = set()
         self.unusable: set[int] = set()
         self.nudge: dict[str, Any] | None = None
+        self.lock: tuple | None = None
         while not ts.episode_over:
             obs = ts.observation
             self.in_room += 1

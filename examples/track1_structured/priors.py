@@ -62,3 +62,11 @@ class Priors:
         table = self.tables["category_room"][c]
         return max(rooms, key=lambda r: table[self.room_types.index(rooms[r])]
                    if rooms[r] in self.room_types else 0.0)
+
+    def room_share(self, category: str, room_type: str | None) -> float:
+        """How likely an item of ``category`` is in a room of ``room_type`` relative to the
+        likeliest room type (1 for the likeliest; 1 when either is unknown)."""
+        if category not in self.items or room_type not in self.room_types:
+            return 1.0
+        row = self.tables["category_room"][self.items.index(category)]
+        return float(row[self.room_types.index(room_type)] / max(float(row.max()), 1e-9))

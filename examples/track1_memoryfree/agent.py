@@ -41,6 +41,10 @@ LOOK_AROUND = 6
 UNLIKELY = 0.25
 """A room type holding what is wanted less than this often, relative to the likeliest
 type, is left at once."""
+STEP = 0.5
+"""The farthest one move goes (m)."""
+RADIUS = 0.3
+"""Half the width of the corridor a move needs (the robot's radius and a margin, m)."""
 CLOSE = 2.2
 """Closer than this, what rests on a piece of furniture would be in sight."""
 
@@ -108,24 +112,26 @@ class Agent:
 
     # ------------------------------------------------------------------ motion
     def toward(self, obs: dict, bearing: float, dist: float) -> dict[str, Any]:
-        """A move toward a bearing (robot frame), steering to the nearest direction the range
-        scan shows clear for the robot's width."""
+        """A move toward a bearing (robot frame), steering to the nearest heading whose
+        corridor (the robot's width, one step long) the range scan shows free."""
         scan = np.asarray(obs["range_scan"], float)
         n = len(scan)
-        need = min(dist, 1.0) + 0.1
-        clear = np.ones(n, bool)
-        for k in (-2, -1, 0, 1, 2):
-            clear &= np.roll(scan, k) > (need if k == 0 else need * 0.8)
-        angles = np.arange(n) * (2 * math.pi / n)
-        diff = np.abs(np.remainder(angles - bearing + math.pi, 2 * math.pi) - math.pi)
+        rays = np.arange(n) * (2 * math.pi / n)
+        px, py = scan * np.cos(rays), scan * np.sin(rays)
+        heads = np.arange(72) * (2 * math.pi / 72)
+        along = np.outer(np.cos(heads), px) + np.outer(np.sin(heads), py)
+        side = np.outer(-np.sin(heads), px) + np.outer(np.cos(heads), py)
+        length = min(STEP, max(0.1, dist - 0.5)) + RADIUS
+        clear = ~np.any((along > 0.0) & (along < length) & (np.abs(side) < RADIUS), axis=1)
+        diff = np.abs(np.remainder(heads - bearing + math.pi, 2 * math.pi) - math.pi)
         if clear.any():
-            bearing = float(angles[np.argmin(np.where(clear, diff, 9.0))])
+            bearing = float(heads[np.argmin(np.where(clear, diff, 9.0))])
         else:
-            bearing = float(angles[np.argmax(scan)])
+            bearing = float(rays[np.argmax(scan)])
         bearing = math.remainder(bearing, math.tau)
         if abs(bearing) > math.pi / 4:
             return {"primitive": "move", "move": [0.0, math.copysign(1.0, bearing)]}
-        return {"primitive": "move", "move": [min(1.0, max(0.2, dist / 0.5)),
+        return {"primitive": "move", "move": [min(1.0, max(0.2, dist / STEP)),
                                               bearing / (math.pi / 4)]}
 
     def wander(self, obs: dict, dets: list[dict], room_wanted: str | None = None

@@ -14,9 +14,11 @@ exploration it follows the walls and reports every sighting to ``world_model.jso
 write-only report: it never reads it back). Between steps it keeps only what a reactive policy
 needs to act at all: which goal of the instruction it is on (``parsing.py``), the room
 whose sign it read last, how long ago (after a while, or when the goal names another room,
-it leaves through a doorway in sight) and a step counter (after a while it accepts another
-tool with the same use). Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), numpy and the
-standard library.
+it leaves through a doorway in sight), the id of what it is approaching while that stays
+in view, and a step counter (after a while it accepts another tool with the same use). The
+last action's result is part of what it sees: it steps back when it stands in a door's way
+or a turn hits something. Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``),
+numpy and the standard library.
 """
 
 from __future__ import annotations

@@ -35,8 +35,9 @@ calibration checks: final within 10 points of the paper, Table IV's order, the h
 above the memory-free policy on model and recovery, the structured planner highest on both,
 oracle >= 95 and nothing <= 5 on both splits, and the same score for the same seed twice.
 
-Not collected by pytest (the file is ``bench_*.py``). About 15 min for 20 + 20 seeds of every
-system with 2 workers on 2 cores; 35 min for 40 + 40.
+Not collected by pytest (the file is ``bench_*.py``). With 2 workers on 2 cores: about
+3.5 min for 15 + 15 seeds of every system on a quiet machine, 16-28 min for 40 + 40 while
+other jobs load it (load average 5-8); one system alone is a fifth to a tenth of that.
 """
 
 from __future__ import annotations

@@ -35,12 +35,26 @@ from ._params import InstanceParams
 BOUNDARY_RESOLUTION = 10
 """Key-stage boundaries are rounded to multiples of this many observations (0.5 s)."""
 GOAL_EVENTS = ("inserted", "turned", "placed", "opened", "closed", "pressed", "aligned")
+COARSE_EVENTS = ("opened", "closed")
+"""Goal events whose magnitude a coarse annotation still states (to a tenth)."""
 _TEXT = {
     "proprio": "TCP x, y, z (m), yaw (rad), finger opening (m), left/right finger contact",
     "parts": "per part row: present, x, y, z, qw, qx, qy, qz, joint, age (s)",
     "force": "normal contact force on left finger, right finger, palm; net force x, y, z (N)",
     "goal": "[stated, g1, g2, g3]: the task's stated goal parameters (dev split only)",
 }
+
+
+def goal_value(event: str, final: float | None, values: str) -> float | None:
+    """The ``value`` an annotation carries: the magnitude the demonstration reached on its
+    goal event (``values == "exact"``); with ``"coarse"`` only an opening's fraction, to a
+    tenth (an annotator's "about 70 % open": the joint's range is not in the observations),
+    and nothing else (a depth, a turn, ... is read off the demonstration's observations)."""
+    if event not in GOAL_EVENTS or final is None:
+        return None
+    if values == "exact":
+        return float(final)
+    return round(float(final), 1) + 0.0 if event in COARSE_EVENTS else None
 
 
 def _spec(env: BenchEnv, key: str) -> ArraySpec:
@@ -182,8 +196,7 @@ def write_demo_packet(
         key_stages=coarse_stages(stage_idx, names, BOUNDARY_RESOLUTION),
         boundary_resolution=BOUNDARY_RESOLUTION,
         events=[Annotation(step=k, event=e["event"], part=e["part"],
-                           value=float(final) if e["event"] in GOAL_EVENTS and final is not None
-                           else None)
+                           value=goal_value(e["event"], final, env.config.demo_values))
                 for k, e in events],
         frames=frame_spec,
     )

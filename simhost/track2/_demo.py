@@ -7,6 +7,7 @@ ones its robot made through the split's observation channel.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -28,10 +29,15 @@ from ._config import BenchConfig
 from ._env import BenchEnv
 from ._errors import DemoPacketError
 from ._expert import ScriptedExpert
-from ._family import GOAL_NAMES
+from ._family import GOAL_NAMES, action, move
 from ._packet import OBS_KEYS
 from ._params import InstanceParams
 
+POST_STEPS = 24
+"""After the goal an official split's demonstration (annotations without magnitudes) goes on
+this many steps (1.2 s): the demonstrator draws the hand back (up to ``DRAW_BACK_Z``) and
+holds still, so the observations show the result (dev's packet ends on the goal)."""
+DRAW_BACK_Z = 0.26
 BOUNDARY_RESOLUTION = 10
 """Key-stage boundaries are rounded to multiples of this many observations (0.5 s)."""
 GOAL_EVENTS = ("inserted", "turned", "placed", "opened", "closed", "pressed", "aligned")
@@ -106,6 +112,17 @@ def coarse_stages(stages: list[int], names: list[str], resolution: int) -> list[
     return out
 
 
+def _draw_back(env: BenchEnv, grip: float) -> Iterator[np.ndarray]:
+    """After the goal: straight up to ``DRAW_BACK_Z`` (the grip command kept: a tool stays
+    in the hand), then still; the camera sees the result past the hand."""
+    ee = env.sim.ee()
+    width = (grip + 1.0) / 2.0 * WIDTH_MAX
+    yield from move(env, np.array([ee[0], ee[1], DRAW_BACK_Z]), float(ee[3]), width, tol=0.004,
+                    max_steps=POST_STEPS)
+    while True:
+        yield action(np.zeros(3), 0.0, width)
+
+
 def write_demo_packet(
     folder: str | Path,
     params: InstanceParams,
@@ -149,21 +166,37 @@ def write_demo_packet(
         shots: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         if frames:
             shots[0] = env._render(depth=True)[:2]
-        done = False
+        done, tail, success, final = False, None, False, None
         while not done:
-            action = expert()
+            if tail is None:
+                action = expert()
+            else:
+                action = next(tail)
             obs, _, term, trunc, info = env.step(action)
             k = len(actions) + 1
             actions.append(np.asarray(action, dtype=np.float32))
-            stage_idx.append(names.index(info["stage"]) if info["stage"] in names else -1)
+            if tail is None:
+                stage_idx.append(names.index(info["stage"]) if info["stage"] in names else -1)
+            else:  # drawing back belongs to the last key stage
+                stage_idx.append(next((s for s in reversed(stage_idx) if s >= 0), -1))
             for key in keys:
                 observations[key].append(obs[key])
             events += [(k, e) for e in info["events"]]
-            done = term or trunc
+            if tail is None and (term or trunc):
+                success, final = bool(info["success"]), info["value"]
+                if not success or env.config.demo_values == "exact":
+                    done = True  # dev: today's packet, ending on the goal
+                else:  # the demonstrator draws the hand back and holds still; that
+                    # belongs to the last key stage, the last observation shows it done
+                    stage_idx[-1] = next((s for s in reversed(stage_idx) if s >= 0), -1)
+                    tail, left = _draw_back(env, float(action[4])), POST_STEPS
+            elif tail is not None:
+                left -= 1
+                done = left <= 0
+                if done:
+                    stage_idx[-1] = -1
             if frames and (k % frame_every == 0 or done):
                 shots[k] = env._render(depth=True)[:2]
-        success = bool(info["success"])
-        final = info["value"]
         space = {k: _spec(env, k) for k in keys}
         size = env.image_size
     finally:

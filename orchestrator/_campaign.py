@@ -162,7 +162,7 @@ class CampaignOptions:
     metrics_linger_s: float = 0.0
     progress: bool = True
     retry_quarantined: bool = False
-    cancel_grace_s: float = 10.0
+    cancel_grace_s: float = 20.0
     #: How long the GCS may refuse connections before the campaign is given up.
     cluster_patience_s: float = 10.0
 

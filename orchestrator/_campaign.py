@@ -14,9 +14,21 @@ Files (``output`` is resolved against the working directory, archives against th
 campaign file's folder)::
 
     <output>/results.sqlite            the results store (any number of campaigns)
-    <output>/<campaign>/events.jsonl   started / committed / retry / quarantined / cancelled
+    <output>/<campaign>/events.jsonl   submitted / started / committed / retry / quarantined /
+                                       cancelled / failed / finished
     <output>/<campaign>/driver.lock    one driver per campaign
     <output>/<campaign>/ep…/           episode folders (organizer side)
+
+The output folder is created private (0700): episode folders hold the hidden scenario
+(MCAP logs) and the seed commitment's inputs are derived there.
+
+A campaign that cannot go on ends with one message, a distinct exit code and the cancel
+path run (containers stopped, output mounts removed), keeping what was committed:
+``StoreError`` (a damaged store refused at the start, a write that failed: a full disk) and
+``ClusterLost`` (the Ray cluster's GCS stopped answering; the driver notices within
+``cluster_patience_s`` and leaves before Ray's own 60 s abort, which would skip all of
+this). An episode in flight is charged a retry only when its own node failed, never for a
+lost cluster or a failed store.
 """
 
 from __future__ import annotations
@@ -35,7 +47,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from orchestrator._errors import OrchestratorError
-from schemas import CampaignSpec, EpisodeResult, SchemaError, parse_json
+from schemas import CampaignSpec, SchemaError, parse_json
 
 log = logging.getLogger("eagc.campaign")
 
@@ -45,6 +57,23 @@ MAX_RUNS_DIR = 100 - len("/ep0123456789abcdef/sock/zenoh.sock")
 
 class CampaignError(OrchestratorError, RuntimeError):
     """Raised when a campaign cannot start: images, the cluster, another driver, the store."""
+
+
+class ClusterLost(CampaignError):
+    """Raised when the Ray cluster's GCS stopped answering while a campaign ran."""
+
+
+class DriverFailure(CampaignError):
+    """Raised when a running campaign had to stop (its store failed, the Ray cluster was
+    lost): the cancel path ran and every committed result is kept."""
+
+    def __init__(self, message: str, exit_code: int) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+#: Exit codes of ``eagc campaign run`` for a campaign that had to stop (``ExitCode``).
+EXIT_STORE, EXIT_CLUSTER = 5, 6
 
 
 # ---------------------------------------------------------------------------- the spec
@@ -133,7 +162,9 @@ class CampaignOptions:
     metrics_linger_s: float = 0.0
     progress: bool = True
     retry_quarantined: bool = False
-    cancel_grace_s: float = 10.0
+    cancel_grace_s: float = 20.0
+    #: How long the GCS may refuse connections before the campaign is given up.
+    cluster_patience_s: float = 10.0
 
 
 @dataclass
@@ -152,20 +183,39 @@ class CampaignReport:
     commit_s: list[float] = field(default_factory=list)
     nodes: set[str] = field(default_factory=set)
     metrics_port: int | None = None
+    reaped: int = 0
 
 
 class Events:
     """``events.jsonl``: what the driver saw, one JSON object a line (no seeds)."""
 
     def __init__(self, path: Path) -> None:
+        self.path = path
         self._f: IO[str] = path.open("a")
 
     def write(self, kind: str, **data: Any) -> None:
-        self._f.write(json.dumps({"event": kind, "at": time.time(), **data}) + "\n")
-        self._f.flush()
+        """Appends one event; StoreWriteError if it could not be written (a full disk):
+        ``rebuild-store`` needs these lines as much as the store needs its rows."""
+        from orchestrator._store import StoreWriteError
+
+        try:
+            self._f.write(json.dumps({"event": kind, "at": time.time(), **data}) + "\n")
+            self._f.flush()
+        except OSError as e:
+            raise StoreWriteError(f"could not write {self.path}: {e.strerror or e}") from None
+
+    def try_write(self, kind: str, **data: Any) -> None:
+        """``write`` on the way out of a failed campaign: a failure is only logged."""
+        try:
+            self.write(kind, **data)
+        except Exception as e:  # noqa: BLE001
+            log.warning("%s", e)
 
     def close(self) -> None:
-        self._f.close()
+        try:
+            self._f.close()
+        except OSError as e:  # the last buffered bytes did not fit on the disk
+            log.warning("closing %s: %s", self.path, e)
 
 
 @contextmanager
@@ -202,302 +252,115 @@ def sigterm_as_interrupt() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+def _token_auth() -> None:
+    """Ray token authentication, configured rather than defaulted: with ``RAY_AUTH_MODE``
+    unset, Ray 2.60 turns it on by itself and warns on every campaign. An operator who wants
+    it off sets ``RAY_AUTH_MODE=disabled`` (and the cluster must agree)."""
+    if "RAY_AUTH_MODE" in os.environ:
+        return
+    os.environ["RAY_AUTH_MODE"] = "token"
+    try:  # the process's Ray config was read at import: read it again, as Ray itself does
+        from ray._raylet import Config
+
+        Config.initialize("")
+    except Exception as e:  # noqa: BLE001 - an older Ray without token authentication
+        log.debug("Ray config not re-read: %s", e)
+
+
 @contextmanager
 def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[None]:
-    """An existing cluster (``address``), the Ray already initialized, or an embedded one."""
+    """An existing cluster (``address``), the Ray already initialized, or an embedded one.
+
+    The embedded Ray is always a new cluster of its own (``address="local"``: never one
+    that ``ray start`` left on the machine) in its own temp dir under ``$RAY_TMPDIR`` (or
+    /tmp), removed when the campaign ends; should the driver be killed, a sentinel process
+    (``orchestrator._raysentinel``) ends what is left of that Ray and removes the dir.
+    """
+    import shutil
+    import tempfile
+
     import ray
 
+    from orchestrator import _raysentinel as raysentinel
     from orchestrator._fanout import SLOT
 
     owned = not ray.is_initialized()
+    temp: str | None = None
     if owned:
+        _token_auth()
         quiet: dict[str, Any] = {"log_to_driver": False, "logging_level": logging.WARNING,
                                  "namespace": "eagc"}
         if options.address:
             ray.init(address=options.address, **quiet)
         else:
             cpus = max(os.cpu_count() or 1, math.ceil(options.workers * spec.limits.cpus))
-            ray.init(num_cpus=cpus, resources={SLOT: float(options.workers)},
-                     include_dashboard=False, **quiet)
+            temp = tempfile.mkdtemp(prefix="eagc-ray-",
+                                    dir=os.environ.get("RAY_TMPDIR") or "/tmp")
+            ray.init(address="local", num_cpus=cpus, resources={SLOT: float(options.workers)},
+                     include_dashboard=False, _temp_dir=temp, **quiet)
+            # Should this driver be killed, what it started of Ray goes with it.
+            raysentinel.start(os.getpid(), temp)
+    lost = False
     try:
         if not ray.cluster_resources().get(SLOT):
             raise CampaignError(f"no Ray node offers the {SLOT!r} resource: start nodes with "
                                 f"`ray start … --resources '{{\"{SLOT}\": N}}'` (N containers "
                                 "at a time on that node)")
         yield
+    except ClusterLost:
+        lost = True
+        raise
+    except DriverFailure as e:
+        lost = e.exit_code == EXIT_CLUSTER
+        raise
     finally:
-        if owned:
+        if owned and not lost:  # with the GCS gone, shutdown() would wait for it
             ray.shutdown()
+        if temp is not None and not lost:
+            shutil.rmtree(temp, ignore_errors=True)
+
+
+class ClusterWatch:
+    """Connects to the GCS every second from a thread; ``lost`` once it refused for
+    ``patience_s`` in a row. Ray itself would only notice after 60 s, and then abort the
+    process without running any of the driver's cleanup."""
+
+    def __init__(self, address: str, patience_s: float) -> None:
+        import threading
+
+        host, _, port = address.rpartition(":")
+        self.target = (host or "127.0.0.1", int(port))
+        self.patience_s = patience_s
+        self.lost = threading.Event()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True, name="eagc-gcs-watch")
+        self._thread.start()
+
+    def alive(self, timeout: float = 1.0) -> bool:
+        import socket
+
+        try:
+            with socket.create_connection(self.target, timeout=timeout):
+                return True
+        except OSError:
+            return False
+
+    def _run(self) -> None:
+        last_ok = time.monotonic()
+        while not self._stop.wait(1.0):
+            if self.alive():
+                last_ok = time.monotonic()
+            elif time.monotonic() - last_ok > self.patience_s:
+                self.lost.set()
+                return
+
+    def close(self) -> None:
+        self._stop.set()
 
 
 def run_campaign(spec: CampaignSpec, options: CampaignOptions | None = None, *,
                  console: Any = None) -> CampaignReport:
-    """Runs what the store lacks of ``spec``; returns what this run did."""
-    options = options or CampaignOptions()
-    with driver_lock(campaign_dir(spec)), sigterm_as_interrupt():
-        driver = Driver(spec, options, console=console)
-        try:
-            return driver.run()
-        finally:
-            driver.close()
+    """Runs what the store lacks of ``spec``; returns what this run did (``_driver``)."""
+    from orchestrator._driver import run_campaign as run
 
-
-class Driver:
-    """One run of one campaign: submit, stream results, commit, retry, cancel."""
-
-    def __init__(self, spec: CampaignSpec, options: CampaignOptions, *, console: Any) -> None:
-        from rich.console import Console
-
-        from orchestrator._metrics import CampaignMetrics
-        from orchestrator._store import ResultsStore
-
-        self.spec, self.options = spec, options
-        self.name = spec.name
-        self.console = console or Console(stderr=True)
-        self.folder = campaign_dir(spec)
-        self.store = ResultsStore(store_path(spec))
-        self.events = Events(self.folder / "events.jsonl")
-        self.metrics = CampaignMetrics(spec.name, track=spec.track, phase=spec.phase)
-        self.report = CampaignReport(spec.name, planned=0)
-        self.pending: dict[Any, Any] = {}  # ObjectRef → EpisodeJob
-        self.running: dict[str, dict[str, Any]] = {}  # episode id → "started" report
-        self.finished: set[str] = set()
-        self.failed = 0
-        self.cancelling = False
-        self.seeds: dict[tuple[str, int], int] = {}
-        self.pinned: dict[str, Any] = {}
-        self.archives: dict[str, list[Any]] = {}
-        self.board: Any = None
-
-    def close(self) -> None:
-        if self.report.metrics_port is not None and self.options.metrics_linger_s > 0:
-            time.sleep(self.options.metrics_linger_s)
-        self.metrics.close()
-        self.store.close()
-        self.events.close()
-
-    # ------------------------------------------------------------------ run
-    def run(self) -> CampaignReport:
-        from orchestrator._fanout import pin_images
-        from orchestrator._seeds import commitment, load_secret, seed_list
-
-        started = time.time()
-        secret = load_secret(self.spec)
-        if secret.public:
-            self.console.print("[yellow]seeds derive from the campaign name: they are PUBLIC "
-                               "(fine for a local test, never for an official run)[/]")
-        seeds = seed_list(self.spec, secret)
-        self.seeds = {(s.split, s.index): s.seed for s in seeds}
-        keys = plan(self.spec)
-        self.report.planned = len(keys)
-        self.store.register(self.spec, commitment(self.spec, seeds), len(keys))
-        done = self.store.done(self.name)
-        held = {q.key for q in self.store.quarantined(self.name)}
-        todo = [k for k in keys if k not in done
-                and (self.options.retry_quarantined or k not in held)]
-        self.report.skipped = len(keys) - len(todo)
-        if self.options.metrics_port is not None:
-            self.report.metrics_port = self.metrics.serve(self.options.metrics_port,
-                                                          self.options.metrics_addr)
-        self._update_states()
-        if todo:
-            self.pinned = pin_images(self.spec)
-            with ray_connection(self.spec, self.options):
-                self._run(todo)
-        self.report.wall_s = time.time() - started
-        self.events.write("finished", committed=self.report.committed,
-                          cancelled=self.report.cancelled, wall_s=self.report.wall_s)
-        return self.report
-
-    def _run(self, todo: list[Any]) -> None:
-        import ray
-
-        from orchestrator._fanout import ProgressBoard, cleanup_nodes
-
-        self.board = ProgressBoard.remote()
-        # Containers a killed earlier driver of this campaign left behind.
-        cleanup_nodes({"campaign": self.name}, str(self.folder))
-        for sub in self.spec.submissions:
-            if sub.archive is not None and len(ray.nodes()) > 1:
-                self.archives[sub.team] = [ray.put(sub.archive.read_bytes())]
-        for key in todo:
-            self._submit(key, self.store.attempts(self.name, key))
-        self.events.write("submitted", episodes=len(todo))
-        progress, bar = self._progress(len(todo))
-        try:
-            with progress:
-                while self.pending:
-                    self._step()
-                    progress.update(bar, completed=self.report.committed + self.report.quarantined,
-                                    running=len(self.running), failed=self.failed,
-                                    retries=self.report.retries)
-        except KeyboardInterrupt:
-            self._cancel()
-
-    def _progress(self, total: int) -> tuple[Any, Any]:
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        progress = Progress(
-            TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-            TextColumn("{task.fields[running]} running · {task.fields[failed]} failed · "
-                       "{task.fields[retries]} retried"),
-            TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-            console=self.console, disable=not self.options.progress,
-        )
-        bar = progress.add_task(self.name, total=total, running=0, failed=0, retries=0)
-        return progress, bar
-
-    def _submit(self, key: Any, retry: int) -> None:
-        from orchestrator._fanout import EpisodeJob, code_version, submit
-        from orchestrator._worker import new_episode_id
-
-        pin = self.pinned[key.submission]
-        split = next(s for s in self.spec.splits if s.name == key.split)
-        job = EpisodeJob(
-            campaign=self.name, submission=key.submission, split=key.split, index=key.index,
-            retry=retry, episode=new_episode_id(), track=self.spec.track, image=pin.run,
-            digest=pin.digest, seed=self.seeds[(key.split, key.index)], params=split.params,
-            limits=self.spec.limits, runs_dir=str(self.folder), runtime=self.spec.runtime,
-            archive=self.archives.get(key.submission, []), code=code_version(),
-        )
-        self.pending[submit(job, self.board)] = job
-
-    def _step(self) -> None:
-        import ray
-
-        refs = list(self.pending)
-        ready, rest = ray.wait(refs, num_returns=1, timeout=0.5)
-        if ready and rest:
-            more, _ = ray.wait(rest, num_returns=len(rest), timeout=0)
-            ready += more
-        self._drain()
-        for ref in ready:
-            self._finish(ref)
-
-    def _drain(self) -> None:
-        import ray
-
-        from orchestrator._fanout import ProgressBoard
-
-        try:
-            events = ray.get(self.board.drain.remote(), timeout=30)
-        except ray.exceptions.RayError as e:  # its node died: only live progress is lost
-            log.warning("the progress board is gone (%s); starting a new one", e)
-            self.board = ProgressBoard.remote()
-            return
-        for ev in events:
-            if ev["episode"] in self.finished:
-                continue
-            self.running[ev["episode"]] = ev
-            self.events.write("started", **{k: v for k, v in ev.items() if k != "at"})
-        self.metrics.set_running(len(self.running))
-
-    # ------------------------------------------------------------------ results
-    def _finish(self, ref: Any) -> None:
-        import ray
-
-        from orchestrator._fanout import cleanup_nodes
-        from orchestrator._store import EpisodeKey
-
-        job = self.pending.pop(ref)
-        self.running.pop(job.episode, None)
-        self.finished.add(job.episode)
-        self.metrics.set_running(len(self.running))
-        key = EpisodeKey(job.submission, job.split, job.index)
-        where = {"submission": job.submission, "split": job.split, "index": job.index,
-                 "retry": job.retry, "episode": job.episode}
-        result: EpisodeResult | None = None
-        node: str | None = None
-        crashed = False
-        try:
-            report = ray.get(ref)
-            node = report.node
-            if report.result_json is not None:
-                result = EpisodeResult.model_validate_json(report.result_json)
-                message = result.failure.message if result.failure else ""
-            else:
-                message = report.error or "the task returned no result"
-        except ray.exceptions.RayError as e:
-            if self.cancelling:
-                return
-            crashed = True
-            message = f"{type(e).__name__}: " + (str(e).strip().splitlines() or [""])[0][:300]
-        if result is not None and result.status.failure_kind != "infra":
-            t = time.perf_counter()
-            new = self.store.commit(self.name, key, result, retry=job.retry, node=node)
-            self.report.commit_s.append(time.perf_counter() - t)
-            if new:
-                self.report.committed += 1
-                self.report.nodes.add(node or "?")
-                self.failed += result.failure is not None
-                self.metrics.episode_finished(job.submission, result)
-            else:
-                self.report.duplicates += 1
-            self.events.write("committed" if new else "duplicate", **where, node=node,
-                              status=result.status.value, score=result.score.total)
-            self._update_states()
-            return
-        # An infrastructure failure: record it, then retry or quarantine.
-        self.store.record_attempt(self.name, key, retry=job.retry, episode=job.episode,
-                                  message=message, node=node, result=result)
-        if crashed:  # the dead worker's container and output mount
-            cleanup_nodes({"campaign": self.name, "episode": job.episode},
-                          str(self.folder / job.episode))
-        if self.cancelling:
-            return
-        if job.retry < self.spec.retries:
-            self.report.retries += 1
-            self.metrics.episode_retried(job.submission)
-            self.events.write("retry", **where, node=node, message=message)
-            self._submit(key, job.retry + 1)
-        else:
-            self.report.quarantined += 1
-            self.store.quarantine(self.name, key, episode=job.episode, message=message,
-                                  retries=job.retry)
-            self.metrics.episode_quarantined(job.submission)
-            self.events.write("quarantined", **where, node=node, message=message)
-            self.console.print(f"[red]quarantined {key}[/]: {message}")
-        self._update_states()
-
-    def _update_states(self) -> None:
-        c = self.store.counts(self.name)
-        held, _ = c.pop("quarantined"), c.pop("retries")
-        done = sum(c.values())
-        planned = self.report.planned
-        self.metrics.set_states({
-            "planned": planned, "done": done, "failed": done - c.get("completed", 0),
-            "quarantined": held, "remaining": max(0, planned - done - held),
-        })
-
-    def _cancel(self) -> None:
-        import ray
-
-        from orchestrator._fanout import cleanup_nodes
-
-        self.cancelling = True
-        self.report.cancelled = True
-        self.console.print(f"[yellow]cancelling {len(self.pending)} episode(s); committed "
-                           "results are kept, run the campaign again to resume[/]")
-        self.events.write("cancelled", pending=len(self.pending))
-        for ref in self.pending:
-            ray.cancel(ref)  # KeyboardInterrupt in the task: run_episode stops its container
-        deadline = time.time() + self.options.cancel_grace_s
-        try:
-            while self.pending and time.time() < deadline:
-                ready, _ = ray.wait(list(self.pending), num_returns=len(self.pending),
-                                    timeout=0.5)
-                for ref in ready:
-                    self._finish(ref)
-        except KeyboardInterrupt:
-            pass
-        for ref in self.pending:
-            ray.cancel(ref, force=True)
-        self.pending.clear()
-        cleanup_nodes({"campaign": self.name}, str(self.folder))
+    return run(spec, options, console=console)

@@ -41,6 +41,33 @@ def _errors() -> Iterator[None]:
     yield
 
 
+@contextmanager
+def _driver_failures() -> Iterator[None]:
+    """A campaign that had to stop: one line and its exit code (5 store, 6 Ray lost).
+
+    With the Ray cluster gone the process leaves at once (``os._exit``): Ray's exit hooks
+    would wait for the dead GCS."""
+    import os
+    import sys
+
+    from orchestrator._campaign import EXIT_STORE, DriverFailure
+    from orchestrator._cli_common import say_error
+    from orchestrator._store import StoreError
+
+    try:
+        yield
+    except DriverFailure as e:
+        say_error(str(e))
+        if e.exit_code != EXIT_STORE:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(e.exit_code)
+        raise typer.Exit(e.exit_code) from None
+    except StoreError as e:
+        say_error(str(e))
+        raise typer.Exit(EXIT_STORE) from None
+
+
 def _load(path: Path) -> Any:
     from orchestrator._campaign import load_campaign
 
@@ -112,7 +139,7 @@ def run_cmd(
     options = CampaignOptions(address=address, workers=workers, metrics_port=metrics_port,
                               metrics_linger_s=metrics_linger,
                               progress=progress, retry_quarantined=retry_quarantined)
-    with _errors():
+    with _errors(), _driver_failures():
         report = run_campaign(spec, options, console=err)
     err.print(f"{spec.name}: {report.committed} committed this run, {report.skipped} already "
               f"in the store, {report.retries} retried, {report.quarantined} quarantined, "
@@ -124,6 +151,26 @@ def run_cmd(
         raise typer.Exit(ExitCode.CANCELLED)
     if report.quarantined:
         raise typer.Exit(ExitCode.INFRA)
+
+
+@campaign_app.command("rebuild-store")
+def rebuild_store_cmd(campaign: CampaignArg) -> None:
+    """Rebuild (or complete) the campaign's results in the store from its episode folders
+    (each one's result.json) and events.jsonl; a damaged store file is moved aside first."""
+    from orchestrator._rebuild import rebuild
+
+    spec = _load(campaign)
+    with _errors():
+        report = rebuild(spec)
+    if report.moved_aside is not None:
+        err.print(f"the damaged store was moved to {report.moved_aside}")
+    err.print(f"{spec.name}: {report.results_read} result.json read, {report.committed} "
+              f"committed, {report.already} already there, {report.attempts} attempts, "
+              f"{report.quarantined} quarantined")
+    for what, items in (("not named in events.jsonl", report.unattributed),
+                        ("unreadable", report.unreadable)):
+        if items:
+            err.print(f"[yellow]{len(items)} result(s) {what}[/]: {', '.join(items[:5])}")
 
 
 @campaign_app.command("leaderboard")

@@ -12,6 +12,9 @@ Exit codes (``eagc --help`` and the README show the same table)::
          quarantined after their retries)
     4    the agent failed (run-episode: crash, timeout, OOM, protocol, bad files, no start;
          test: the container does not meet the contract)
+    5    campaign run: the results store failed (a full disk) or was refused (damaged, or
+         empty beside existing results: eagc campaign rebuild-store)
+    6    campaign run: the Ray cluster was lost
     130  cancelled (Ctrl-C)
 
 Any ``schemas.EagcError`` a command lets through (every package's errors derive from it)
@@ -46,6 +49,8 @@ class ExitCode(IntEnum):
     USAGE = 2
     INFRA = 3
     AGENT = 4
+    STORE = 5
+    CLUSTER = 6
     CANCELLED = 130
 
 
@@ -53,7 +58,8 @@ EXIT_CODES_HELP = (
     "Exit codes: 0 success (run-episode: the episode completed); 1 an error, on one line, "
     "or a check that does not hold; 2 usage error (unknown track or split, bad value); "
     "3 infrastructure failure (campaign run: episodes quarantined); 4 the agent failed "
-    "(test: the container does not meet the contract); 130 cancelled."
+    "(test: the container does not meet the contract); 5 the results store failed or was "
+    "refused; 6 the Ray cluster was lost (campaign run); 130 cancelled."
 )
 
 

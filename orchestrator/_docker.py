@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from orchestrator._reaper import HEARTBEAT_LABEL, start_watcher
 from orchestrator._runtime import (
     LABEL_PREFIX,
     AgentHandle,
@@ -177,6 +178,8 @@ class DockerRuntime(AgentRuntime):
         )
         labels = {f"{LABEL_PREFIX}.managed": "true", f"{LABEL_PREFIX}.episode": launch.episode}
         labels.update({f"{LABEL_PREFIX}.{k}": str(v) for k, v in launch.labels.items()})
+        if launch.heartbeat is not None:
+            labels[HEARTBEAT_LABEL] = str(launch.heartbeat)
         device_requests = []
         if lim.gpus:
             device_requests.append(
@@ -225,6 +228,13 @@ class DockerRuntime(AgentRuntime):
             raise InfraError(f"engine error starting {launch.image!r}: {e}") from e
         except Exception as e:  # noqa: BLE001
             raise InfraError(f"engine error starting {launch.image!r}: {e}") from e
+        if launch.heartbeat is not None and launch.deadline_s is not None:
+            # From outside the container and outside Ray: ends it at the deadline, or as
+            # soon as no worker keeps its heartbeat (the worker, the node or Ray died).
+            try:
+                start_watcher(container.id, launch.heartbeat, time.time() + launch.deadline_s)
+            except Exception as e:  # noqa: BLE001 - the reapers still bound it
+                log.warning("no episode watcher for %s: %s", container.name, e)
         return DockerAgent(container, lim.memory_mb << 20)
 
     def cleanup(self, labels: Mapping[str, str] | None = None) -> list[str]:

@@ -93,6 +93,8 @@ class TaskReport:
     pid: int
     result_json: str | None = None
     error: str | None = None
+    #: Dead episodes' containers this worker removed while it ran this task.
+    reaped: int = 0
 
 
 @ray.remote(num_cpus=0)
@@ -156,9 +158,17 @@ def _runtime(job: EpisodeJob) -> Any:
     return DockerRuntime()
 
 
-@ray.remote(max_retries=0)
+#: Episodes one Ray worker process runs before Ray replaces it: whatever a long-lived
+#: process would accumulate per episode (the bench_soak.py run of this change found one fd
+#: and an SHM segment per episode, from the host's Zenoh sessions) stays bounded. A new
+#: worker costs a few seconds of imports, once per this many episodes.
+EPISODES_PER_WORKER = 50
+
+
+@ray.remote(max_retries=0, max_calls=EPISODES_PER_WORKER)
 def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
     """Runs one episode on whatever node Ray chose; never raises for agent faults."""
+    from orchestrator import _reaper
     from orchestrator._worker import EpisodeSpec, run_episode
 
     node, host, pid = _node(), socket.gethostname(), os.getpid()
@@ -172,6 +182,9 @@ def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
             f"version skew: this worker runs eagc code {here} "
             f"({code_root()}), the driver {job.code}; deploy the same "
             "eagc on every node (the episode was not run)"))
+    before = _reaper.reaped_here
+    if job.runtime != "local":  # each worker, as it starts an episode: dead episodes' agents
+        _reaper.reap_here()
     try:
         runtime = _runtime(job)
         image = job.image if job.runtime == "local" else _ensure_image(runtime.client, job)
@@ -184,8 +197,10 @@ def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
                            labels=job.labels, episode=job.episode, index=job.index)
         result = run_episode(spec, runtime)
     except Exception as e:  # noqa: BLE001 - an infrastructure failure, retried by the driver
-        return TaskReport(node, host, pid, error=f"{type(e).__name__}: {e}")
-    return TaskReport(node, host, pid, result_json=result.model_dump_json())
+        return TaskReport(node, host, pid, error=f"{type(e).__name__}: {e}",
+                          reaped=_reaper.reaped_here - before)
+    return TaskReport(node, host, pid, result_json=result.model_dump_json(),
+                      reaped=_reaper.reaped_here - before)
 
 
 def submit(job: EpisodeJob, board: Any) -> Any:

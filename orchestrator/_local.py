@@ -3,10 +3,19 @@
 No sandbox at all: the agent has the network, the whole filesystem and no resource limits
 beyond an address-space cap. Never use it for official runs; campaigns refuse it outside
 the ``local`` phase.
+
+An agent never outlives its worker: it runs in a process group of its own with a
+parent-death signal (SIGKILL). Linux sends that signal when the *thread* that forked the
+child ends, so each agent is spawned from a thread that lives until the agent is stopped.
+Its environment carries ``EAGC_LOCAL_AGENT`` (its labels and heartbeat, as JSON), by which
+``cleanup`` finds agents left behind anyway (a worker whose parent-death signal could not
+be delivered, e.g. one started before this change).
 """
 
 from __future__ import annotations
 
+import ctypes
+import json
 import logging
 import os
 import resource
@@ -17,6 +26,7 @@ import sys
 import threading
 import time
 from collections import deque
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from orchestrator._runtime import (
@@ -30,6 +40,40 @@ from schemas import ContainerExit
 
 log = logging.getLogger("eagc.local")
 
+#: The environment variable that marks a local agent (JSON: labels, heartbeat).
+MARK = "EAGC_LOCAL_AGENT"
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent(parent: int) -> None:
+    """In the child before exec: SIGKILL when the spawning thread ends."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:  # the parent died before the signal was armed
+        os._exit(1)
+
+
+class _Spawner(threading.Thread):
+    """Starts one agent and lives until it is stopped (the parent-death signal's anchor)."""
+
+    def __init__(self, argv: list[str], kwargs: dict[str, object]) -> None:
+        super().__init__(daemon=True, name="local-agent")
+        self.argv, self.kwargs = argv, kwargs
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.error: BaseException | None = None
+        self.ready = threading.Event()
+        self.release = threading.Event()
+
+    def run(self) -> None:
+        try:
+            self.proc = subprocess.Popen(self.argv, **self.kwargs)  # type: ignore[call-overload]
+        except BaseException as e:  # noqa: BLE001 - handed to the caller
+            self.error = e
+        self.ready.set()
+        if self.proc is not None:
+            self.release.wait()
+
+
 WARNING = (
     "LocalProcessRuntime: the agent runs as a plain process WITHOUT the sandbox "
     "(network, files and memory are not isolated). Development only, never for official runs."
@@ -37,8 +81,9 @@ WARNING = (
 
 
 class LocalAgent(AgentHandle):
-    def __init__(self, proc: subprocess.Popen[bytes]) -> None:
+    def __init__(self, proc: subprocess.Popen[bytes], spawner: _Spawner | None = None) -> None:
         self.proc = proc
+        self._spawner = spawner
         self.id = str(proc.pid)
         self._tail: deque[str] = deque(maxlen=40)
         self._reader = threading.Thread(target=self._read, daemon=True)
@@ -89,6 +134,8 @@ class LocalAgent(AgentHandle):
             except ProcessLookupError:
                 pass
             self.proc.wait()
+            if self._spawner is not None:
+                self._spawner.release.set()
             self._reader.join(timeout=5)
             code = self.proc.returncode
             self._exit = ContainerExit(
@@ -124,26 +171,74 @@ class LocalProcessRuntime(AgentRuntime):
             )
         )
         env["HOME"] = os.environ.get("HOME", "/tmp")
+        env[MARK] = json.dumps({"labels": {"episode": launch.episode, **launch.labels},
+                                "heartbeat": None if launch.heartbeat is None
+                                else str(launch.heartbeat)})
         memory = launch.limits.memory_mb * 1024 * 1024
         cores = {int(c) for c in launch.cpuset.split(",")} if launch.cpuset else set()
 
+        parent = os.getpid()
+
         def limits() -> None:  # runs in the child before exec
+            _die_with_parent(parent)
             # Address space, not resident memory: generous, but stops a runaway process.
             resource.setrlimit(resource.RLIMIT_AS, (memory * 4, memory * 4))
             if cores:  # the worker's thread may be pinned to the sim host's core
                 os.sched_setaffinity(0, cores)
 
+        spawner = _Spawner(argv, {
+            "env": env, "cwd": Path.cwd(), "stdin": subprocess.DEVNULL,
+            "stdout": subprocess.PIPE, "stderr": subprocess.STDOUT,
+            "start_new_session": True, "preexec_fn": limits,
+        })
+        spawner.start()
+        spawner.ready.wait()
+        if spawner.proc is None:
+            e = spawner.error
+            if isinstance(e, (OSError, ValueError, subprocess.SubprocessError)):
+                raise AgentStartError(f"cannot start {launch.image!r}: {e}") from e
+            raise AgentStartError(f"cannot start {launch.image!r}: {e}")
+        return LocalAgent(spawner.proc, spawner)
+
+    def cleanup(self, labels: Mapping[str, str] | None = None) -> list[str]:
+        """Kills the process groups of local agents whose labels include ``labels``."""
+        return [f"pid {pid}" for pid, _ in kill_local_agents(labels or {})]
+
+
+def local_agents() -> list[tuple[int, dict[str, object]]]:
+    """(pid, mark) of every local agent on this machine that we may signal."""
+    found = []
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
         try:
-            proc = subprocess.Popen(
-                argv,
-                env=env,
-                cwd=Path.cwd(),
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.PIPE,
-                stderr=subprocess.STDOUT,
-                start_new_session=True,
-                preexec_fn=limits,
-            )
-        except (OSError, ValueError) as e:
-            raise AgentStartError(f"cannot start {launch.image!r}: {e}") from e
-        return LocalAgent(proc)
+            environ = (d / "environ").read_bytes()
+        except OSError:
+            continue
+        for item in environ.split(b"\0"):
+            if item.startswith(MARK.encode() + b"="):
+                try:
+                    found.append((int(d.name), json.loads(item[len(MARK) + 1:])))
+                except ValueError:
+                    pass
+                break
+    return found
+
+
+def kill_local_agents(labels: Mapping[str, str], *,
+                      only: Callable[[dict[str, object]], bool] | None = None
+                      ) -> list[tuple[int, dict[str, object]]]:
+    """SIGKILLs the process group of each local agent matching ``labels`` (and ``only``)."""
+    killed = []
+    for pid, mark in local_agents():
+        have = mark.get("labels") or {}
+        if not isinstance(have, dict) or any(have.get(k) != v for k, v in labels.items()):
+            continue
+        if only is not None and not only(mark):
+            continue
+        try:
+            os.killpg(os.getpgid(pid), signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            continue
+        killed.append((pid, mark))
+    return killed

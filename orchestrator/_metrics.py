@@ -21,7 +21,13 @@ metric                                                    type        labels (pl
 ``eagc_invalid_actions_total``                            counter     submission
 ``eagc_episode_score``                                    histogram   submission, split
 ``eagc_container_peak_memory_bytes``                      histogram   submission
+``eagc_containers_reaped_total``                          counter
+``eagc_store_errors_total``                               counter
 ========================================================  ==========  =======================
+
+Every labelled series exists from the campaign's start, at 0, for each submission, split
+and status (``start_series``): a series that appeared only at its first increment would
+hide that increment from ``increase()`` and from the alerts built on it.
 
 ``eagc_agent_step_latency_seconds`` observes each episode's median decision latency (the
 time from a reply to the agent's next request).
@@ -84,6 +90,13 @@ class CampaignMetrics:
         self.memory = Histogram("eagc_container_peak_memory_bytes",
                                 "Peak memory of each agent container (cgroup).",
                                 (*c, "submission"), buckets=_MEMORY, registry=r)
+        self.reaped = Counter("eagc_containers_reaped", "Agent containers removed because "
+                              "their episode was dead (stale heartbeat, killed worker, "
+                              "cancelled campaign).", c, registry=r)
+        self.store_errors = Counter("eagc_store_errors", "Writes to the results store that "
+                                    "failed (a full disk, an I/O error).", c, registry=r)
+        self.reaped.labels(campaign)
+        self.store_errors.labels(campaign)
         self.running.labels(campaign).set(0)
         self._running = 0
         self.last_progress.labels(campaign).set(time.time())
@@ -104,6 +117,25 @@ class CampaignMetrics:
 
     def exposition(self) -> bytes:
         return generate_latest(self.registry)
+
+    def start_series(self, spec: Any) -> None:
+        """Every labelled series of ``spec``'s submissions, splits and statuses, at 0."""
+        from schemas import EpisodeStatus
+
+        c = self.campaign
+        for state in ("planned", "done", "failed", "quarantined", "remaining"):
+            self.episodes.labels(c, state).set(0)
+        for status in EpisodeStatus:
+            self.duration.labels(c, status.value)
+        for sub in spec.submissions:
+            team = sub.team
+            for split in spec.splits:
+                self.score.labels(c, team, split.name)
+                for status in EpisodeStatus:
+                    self.finished.labels(c, team, split.name, status.value)
+            for metric in (self.retries, self.quarantined, self.latency, self.invalid,
+                           self.memory):
+                metric.labels(c, team)
 
     # ------------------------------------------------------------------ updates
     def set_states(self, states: dict[str, int]) -> None:
@@ -137,6 +169,12 @@ class CampaignMetrics:
     def episode_retried(self, submission: str) -> None:
         self.retries.labels(self.campaign, submission).inc()
         self.progress()
+
+    def containers_reaped(self, n: int) -> None:
+        self.reaped.labels(self.campaign).inc(n)
+
+    def store_error(self) -> None:
+        self.store_errors.labels(self.campaign).inc()
 
     def episode_quarantined(self, submission: str) -> None:
         self.quarantined.labels(self.campaign, submission).inc()

@@ -49,6 +49,12 @@ class AgentLaunch:
     labels: Mapping[str, str] = field(default_factory=dict)
     #: The cores the agent runs on ("1,2"), apart from its sim host's; None: anywhere.
     cpuset: str | None = None
+    #: The episode's heartbeat file (``orchestrator._reaper``): named by the agent's label
+    #: so that a reaper can tell a dead episode's agent from a live one.
+    heartbeat: Path | None = None
+    #: Hard deadline, seconds after the start: the runtime ends the agent then, from outside,
+    #: whatever happened to the worker (the sum of the stage budgets, startup and grace).
+    deadline_s: float | None = None
 
     def environment(
         self, *, socket_dir: str, output_dir: str, input_dir: str | None

@@ -12,6 +12,15 @@ Episode folder (organizer side; the agent sees only ``sock/``, ``output/`` and `
     <runs>/<episode>/output/             mounted at /output (size-capped tmpfs when root)
     <runs>/<episode>/input/              mounted read-only at /input, when the track has inputs
     <runs>/<episode>/host/               episode.mcap, result.json, snapshots/, agent.log
+    <runs>/<episode>/heartbeat           touched while the episode runs (orchestrator._reaper)
+
+The episode folder is private (0700): its MCAP log holds the hidden scenario. The agent's
+mounts are bind mounts of its subfolders, which the engine resolves as root.
+
+A watchdog bounds ``SimHost.serve()``: past the sum of the stage budgets plus startup and
+``watchdog_grace_s``, every thread's stack goes to ``host/watchdog.txt``, the host is told
+to stop, and if ``serve()`` still has not returned 10 s later it is abandoned; either way
+the episode ends as an infrastructure failure (retried), never as the agent's.
 """
 
 from __future__ import annotations
@@ -20,6 +29,7 @@ import json
 import logging
 import secrets
 import shutil
+import sys
 import threading
 import time
 import traceback
@@ -33,6 +43,7 @@ import numpy as np
 
 from orchestrator._collect import collect, mount_output, unmount_output
 from orchestrator._cpus import placed
+from orchestrator._reaper import Heartbeat, reap_here
 from orchestrator._runtime import (
     AgentHandle,
     AgentLaunch,
@@ -43,6 +54,7 @@ from plugins import Scenario, ScoringInput, TrackPlugin, load_track
 from schemas import (
     CONTAINER,
     ContainerExit,
+    EndReason,
     EpisodeResult,
     EpisodeStats,
     EpisodeStatus,
@@ -75,6 +87,58 @@ class EpisodeSpec:
     exit_grace_s: float = 10.0
     #: The episode's index within its split in a campaign (None: a one-off episode).
     index: int | None = None
+    #: How long past its budgets (startup + stages) a host may serve before the watchdog.
+    watchdog_grace_s: float = 120.0
+
+
+def stack_dump() -> str:
+    """Every thread's stack, named, as text (what the watchdog writes)."""
+    names = {t.ident: t.name for t in threading.enumerate()}
+    out = []
+    for ident, frame in sys._current_frames().items():
+        out.append(f"--- thread {names.get(ident, '?')} ({ident})\n"
+                   + "".join(traceback.format_stack(frame)))
+    return "\n".join(out)
+
+
+def serve_watched(host: SimHost, stop: threading.Event, deadline_s: float,
+                  dump: Path) -> tuple[HostOutcome, str | None, bool]:
+    """``host.serve(stop)`` on a thread of its own, bounded by ``deadline_s``.
+
+    Returns the outcome, why the watchdog fired if it did (the stacks are in ``dump``), and
+    whether ``serve()`` is still running (abandoned: the episode must not be closed under
+    it)."""
+    got: list[HostOutcome] = []
+    failed: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            got.append(host.serve(stop))
+        except BaseException as e:  # noqa: BLE001 - handed to the caller
+            failed.append(e)
+
+    thread = threading.Thread(target=run, daemon=True, name=f"serve-{host.config.episode}")
+    thread.start()
+    try:
+        thread.join(deadline_s)
+    except BaseException:  # cancelled (KeyboardInterrupt from Ray): stop serving first
+        stop.set()
+        thread.join(10.0)
+        raise
+    if not thread.is_alive():
+        if failed:
+            raise failed[0]
+        return got[0], None, False
+    stacks = stack_dump()
+    dump.write_text(f"watchdog: serve() still ran {deadline_s:.0f} s after the episode "
+                    f"started, past every budget\n\n{stacks}")
+    log.error("episode %s: watchdog fired; stacks in %s", host.config.episode, dump)
+    stop.set()
+    thread.join(10.0)
+    why = (f"watchdog: the sim host still served {deadline_s:.0f} s after the start, past "
+           f"every budget (stacks in {dump.name})")
+    outcome = got[0] if got else HostOutcome()
+    return outcome, why, thread.is_alive()
 
 
 def new_episode_id() -> str:
@@ -128,24 +192,24 @@ def _classify(
     if exit_.oom_killed:
         return (EpisodeStatus.AGENT_OOM, f"memory {limits.memory_mb} MiB",
                 f"the container was killed for exceeding its memory limit during {stage!r}")
-    if reason == "protocol_violation":
+    if reason == EndReason.PROTOCOL_VIOLATION:
         return (EpisodeStatus.AGENT_PROTOCOL, f"{limits.max_protocol_errors} protocol errors",
                 "too many malformed or invalid requests")
-    if reason in ("stopped", "agent_lost"):
+    if reason in (EndReason.STOPPED, EndReason.AGENT_LOST):
         how = "exited" if exit_.exit_code is not None else "disconnected"
         return (EpisodeStatus.AGENT_CRASH, None,
                 f"the agent {how} (exit code {exit_.exit_code}) before the episode ended, "
                 f"during {stage!r}")
-    if reason == "startup_timeout":
+    if reason == EndReason.STARTUP_TIMEOUT:
         if outcome.agent_seen:
             msg = "the agent said hello but did not reset within the startup budget"
         else:
             msg = "the agent never connected within the startup budget"
         return EpisodeStatus.AGENT_TIMEOUT, f"startup {limits.startup_s:g} s", msg
-    if reason == "budget":
+    if reason == EndReason.BUDGET:
         return (EpisodeStatus.AGENT_TIMEOUT, f"stage budget of {stage!r}",
                 f"the last stage {stage!r} ran out of time before the agent finished")
-    if reason == "steps":
+    if reason == EndReason.STEPS:
         return (EpisodeStatus.AGENT_TIMEOUT, f"step cap of {stage!r}",
                 f"the last stage {stage!r} ran out of steps before the agent finished")
     bad = [c for c in checks if not c.ok]
@@ -177,7 +241,11 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
         )
     for d in (sock_dir, host_dir):
         d.mkdir(parents=True, exist_ok=True)
+    root.chmod(0o700)
     sock_dir.chmod(0o755)
+    # Docker agents: the heartbeat names them for the reapers, which run from here too.
+    heartbeat = Heartbeat(root / "heartbeat",
+                          reap=(lambda: reap_here()) if runtime.name == "docker" else None)
     mounted = mount_output(output, spec.limits.output_mb, CONTAINER.uid)
 
     recorder = McapRecorder(host_dir / "episode.mcap")
@@ -190,6 +258,7 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
     infra: str | None = None
     no_start: str | None = None
     input_dir: Path | None = None
+    abandoned = False  # serve() hung and still runs: its episode is left open
     cores = ExitStack()  # the episode's cores, held until its host and agent are gone
     try:
         extra = {} if spec.index is None else {"index": spec.index}
@@ -225,10 +294,13 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
             on_stage_end=snapshots.take,
         )
         host.open()
+        budgets = sum(s.budget_s for s in plugin.stages()) * spec.limits.time_scale
+        watchdog_s = spec.limits.startup_s + budgets + spec.watchdog_grace_s
         launch = AgentLaunch(
             image=spec.image, episode=episode_id, socket_dir=sock_dir, output_dir=output,
             input_dir=input_dir, limits=spec.limits, labels=spec.labels,
             cpuset=None if placement is None else placement.cpuset,
+            heartbeat=heartbeat.path, deadline_s=watchdog_s + spec.exit_grace_s + 30.0,
         )
         try:
             handle = runtime.start(launch)
@@ -244,15 +316,18 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
                 stop.set()
 
             threading.Thread(target=watch, daemon=True, name=f"watch-{episode_id}").start()
-            outcome = host.serve(stop)
+            outcome, hung, abandoned = serve_watched(host, stop, watchdog_s,
+                                                     host_dir / "watchdog.txt")
+            if hung is not None:
+                infra = hung
             handle.checkpoint()  # while the agent most likely still runs
-            if outcome.end_reason not in ("stopped",) and not exited.is_set():
+            if outcome.end_reason != EndReason.STOPPED and not exited.is_set():
                 # Let the agent write its last files and leave on its own.
                 handle.wait(spec.exit_grace_s)
             exit_ = handle.stop()
-            if outcome.end_reason == "stopped" and exit_.exit_code is not None:
+            if outcome.end_reason == EndReason.STOPPED and exit_.exit_code is not None:
                 exit_ = exit_.model_copy(update={"exited_early": True})
-            if outcome.internal_error:
+            if outcome.internal_error and infra is None:
                 infra = outcome.internal_error
     except Exception as e:  # noqa: BLE001 - the result must be recorded whatever happened
         infra = "".join(traceback.format_exception(e))
@@ -263,10 +338,12 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
                 exit_ = handle.stop()
             except Exception as e:  # noqa: BLE001
                 infra = infra or f"could not stop the agent: {e}"
+        heartbeat.stop()
         if host is not None:
             host.close()
             try:
-                host.episode.close()
+                if not abandoned:
+                    host.episode.close()
             except Exception:  # noqa: BLE001
                 pass
         cores.close()

@@ -287,14 +287,30 @@ def images_build(force: Annotated[bool, typer.Option(help="Rebuild everything.")
 
 @app.command()
 def cleanup(
-    campaign: Annotated[str | None, typer.Option(help="Only this campaign's containers.")] = None,
+    campaign: Annotated[str | None, typer.Option(
+        help="Remove every agent of this campaign (stop its driver first).")] = None,
+    runs: Annotated[Path | None, typer.Option(
+        help="Also tidy killed attempts' folders under this runs or campaign folder.")] = None,
+    dry_run: Annotated[bool, typer.Option(help="Only say what would be removed.")] = False,
+    keep_logs: Annotated[bool, typer.Option(
+        help="Keep a killed attempt's host/ folder (its partial MCAP log).")] = False,
 ) -> None:
-    """Remove agent containers left behind by a dead worker (found by label)."""
-    from orchestrator._docker import DockerRuntime
+    """Remove what dead episodes left: agents whose episode's heartbeat went stale (never a
+    running episode's), or all of one campaign's; with --runs, killed attempts' folders."""
+    from orchestrator._cleanup import cleanup as do_cleanup
 
-    labels = {"campaign": campaign} if campaign else None
-    removed = DockerRuntime().cleanup(labels)
-    console.print(f"removed {len(removed)} container(s)" + (f": {removed}" if removed else ""))
+    plan = do_cleanup(campaign=campaign, runs=runs, dry_run=dry_run, keep_logs=keep_logs)
+    verb = "would remove" if dry_run else "removed"
+    for what, items in (("container(s)", plan.containers), ("local agent(s)", plan.local_agents),
+                        ("killed attempt folder(s)", plan.folders),
+                        ("output mount(s)", plan.mounts)):
+        console.print(f"{verb} {len(items)} {what}", highlight=False)
+        for item in items:
+            console.print(f"  {item}", highlight=False, soft_wrap=True)
+    if plan.kept_live:
+        console.print(f"left {plan.kept_live} agent(s) of live episodes alone")
+    for note in plan.notes:
+        console.print(f"[yellow]{note}[/]", highlight=False)
 
 
 @app.command()

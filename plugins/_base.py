@@ -21,6 +21,7 @@ from typing import Any, ClassVar
 from pydantic import BaseModel
 
 from schemas import (
+    EndReason,
     EpisodeResult,
     FileCheck,
     SchemaError,
@@ -58,7 +59,7 @@ class ScoringInput:
 
     scenario: Scenario
     status: EpisodeStatus
-    end_reason: str
+    end_reason: EndReason
     stages_reached: tuple[str, ...]
     outcome: Mapping[str, Any]
     files: Mapping[str, Any]

@@ -32,7 +32,7 @@ import numpy as np
 
 from plugins._base import Scenario, ScoringInput, TrackPlugin
 from plugins._registry import available_tracks, load_track, validate_plugin
-from schemas import FieldSpec, FileCheck, HostMessage, ScoreCard
+from schemas import EndReason, FieldSpec, FileCheck, HostMessage, ScoreCard
 from schemas._result import EpisodeStatus
 from simhost._actions import check_action
 from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
@@ -229,7 +229,7 @@ class TrackConformance:
         return ScoringInput(
             scenario=scenario,
             status=EpisodeStatus.AGENT_TIMEOUT if started else EpisodeStatus.AGENT_NO_START,
-            end_reason="budget" if started else "startup_timeout",
+            end_reason=EndReason.BUDGET if started else EndReason.STARTUP_TIMEOUT,
             stages_reached=stages,
             outcome=outcome,
             files={},
@@ -336,6 +336,9 @@ class TrackConformance:
         for out in outcomes:
             assert out.action is None or out.action.ok or out.action.reason
             assert not out.episode_over or out.end_reason, "an ended episode needs a reason"
+            assert out.end_reason is None or out.end_reason in set(EndReason), (
+                f"end_reason {out.end_reason!r} is not one of schemas.EndReason: "
+                f"{[r.value for r in EndReason]}")
 
     def test_state_hash_is_deterministic(self):
         first, _, a = self._run(actions_seed=2)

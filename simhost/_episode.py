@@ -19,7 +19,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from schemas._protocol import ActionResult, FieldSpec, HostMessage
+from schemas._protocol import ActionResult, EndReason, FieldSpec, HostMessage
 
 StageEnd = Literal["budget", "steps", "agent", "episode_over", "stopped"]
 
@@ -59,14 +59,15 @@ class StepOutcome:
     """The result of one request handled by the episode.
 
     ``events`` are organizer-only records (exception triggered, subgoal reached, …) that go
-    to the MCAP log and the scorer, never to the agent.
+    to the MCAP log and the scorer, never to the agent. ``end_reason`` (when
+    ``episode_over``) is an ``EndReason``; its plain string value works too.
     """
 
     observation: Observation
     action: ActionResult | None = None
     messages: tuple[HostMessage, ...] = ()
     episode_over: bool = False
-    end_reason: str | None = None
+    end_reason: EndReason | None = None
     events: tuple[Mapping[str, Any], ...] = ()
 
 

@@ -1,8 +1,12 @@
 """``SimHost``: serves one episode of a track to one agent over Zenoh (DESIGN §3).
 
 Requests arrive on ``eagc/v1/<episode>/agent/req`` and each gets exactly one reply on
-``…/rep``. One thread owns the episode: ``serve()``, on the caller's thread, blocks on the
-request channel (a Zenoh FIFO: the sample is handed from Zenoh's reader straight to this
+``…/rep``, echoing the request's ``id`` when it has one. The host declares a liveliness token
+on ``…/host_alive`` while its session is open, so that an agent notices a host that is gone
+(``RemoteEnv`` raises ``HostLost``) instead of waiting for a reply that never comes.
+
+One thread owns the episode: ``serve()``, on the caller's thread, blocks on the request
+channel (a Zenoh FIFO: the sample is handed from Zenoh's reader straight to this
 thread, with no Python callback in between) and handles each request to the end, world
 step and reply included. The world is only ever touched from that thread, which also
 keeps MuJoCo's GL context, bound to the thread that made it, on one thread.
@@ -36,6 +40,7 @@ from schemas._protocol import (
     PROTOCOL_VERSION,
     ActionResult,
     Answer,
+    EndReason,
     EndStage,
     ErrorReply,
     Hello,
@@ -47,16 +52,27 @@ from schemas._protocol import (
 )
 from simhost import _transport
 from simhost._actions import ActionError, check_fields
-from simhost._episode import Observation, StageEnd, StageSpec, StepOutcome, TrackEpisode
-from simhost._wire import WireError, decode_request, encode
+from simhost._episode import Observation, Pose, StageEnd, StageSpec, StepOutcome, TrackEpisode
+from simhost._wire import WireError, decode_request, encode, request_id
 
 log = logging.getLogger("eagc.simhost")
 
 _MATCH_WAIT_S = 2.0  # at most this long for the agent's reply subscriber before a reply
+# How the episode ends when its last stage ends this way.
+_LAST_STAGE_END: dict[StageEnd, EndReason] = {
+    "agent": EndReason.COMPLETED,
+    "budget": EndReason.BUDGET,
+    "steps": EndReason.STEPS,
+    "episode_over": EndReason.COMPLETED,
+    "stopped": EndReason.STOPPED,
+}
 
 
 class EpisodeRecorder:
     """Receives what happens in an episode (the MCAP logger implements it). No-op default."""
+
+    #: ``poses()`` is called after reset and every this many steps (0: never).
+    pose_every: int = 0
 
     def request(self, t: float, kind: str, stage: str | None, data: Mapping[str, Any]) -> None:
         """A request about to be applied to the episode, with what it carries (the checked
@@ -71,6 +87,25 @@ class EpisodeRecorder:
 
     def state(self, t: float, step: int, state_hash: str, state: bytes | None) -> None:
         """The simulator state after a step (full ``state`` every few steps)."""
+
+    def poses(self, t: float, step: int, poses: Mapping[str, Pose]) -> None:
+        """The track's organizer-only poses (``TrackEpisode.poses()``) after a step."""
+
+
+@dataclass(frozen=True)
+class HostProgress:
+    """What the serving thread is doing, for a watchdog on another thread.
+
+    ``busy_since`` is set while the serving thread handles a request or ends a stage (track
+    code runs then); it is None while the host waits for the agent, which is never a hang
+    (stage budgets bound that). A watchdog that sees ``busy_since`` far in the past can dump
+    the stack of ``thread_id`` (``sys._current_frames()``) and give up on the episode.
+    """
+
+    requests: int
+    busy_since: float | None
+    phase: str
+    thread_id: int | None
 
 
 @dataclass(frozen=True)
@@ -93,7 +128,7 @@ class HostConfig:
 class HostOutcome:
     """How the episode ended, from the host's side."""
 
-    end_reason: str = "not_started"
+    end_reason: EndReason = EndReason.NOT_STARTED
     stages_reached: list[str] = field(default_factory=list)
     stage_ends: dict[str, str] = field(default_factory=dict)
     stage_durations_s: dict[str, float] = field(default_factory=dict)
@@ -162,9 +197,15 @@ class SimHost:
         self._ticker: Any = None
         self._requests: Any = None
         self._subs: list[Any] = []
+        self._hello_model: HelloReply | None = None
         self._hello_reply: bytes | None = None
+        self._rid: int | None = None  # the id of the request being answered
+        self._token: Any = None
         self._rep_checked = False
         self._t0 = time.monotonic()
+        self._requests_handled = 0
+        self._busy_since: float | None = None
+        self._thread_id: int | None = None
 
     # ----------------------------------------------------------------- lifecycle
     def open(self) -> None:
@@ -176,20 +217,23 @@ class SimHost:
             # The container's non-root uid must be able to connect.
             os.chmod(self.config.socket_path, 0o666)
         self._pub = self._session.declare_publisher(
-            keys["rep"], congestion_control=zenoh.CongestionControl.BLOCK, express=True
+            keys.rep, congestion_control=zenoh.CongestionControl.BLOCK, express=True
         )
         # Ticks go to this session's own request channel and nowhere else.
         self._ticker = self._session.declare_publisher(
-            keys["req"], allowed_destination=zenoh.Locality.SESSION_LOCAL
+            keys.req, allowed_destination=zenoh.Locality.SESSION_LOCAL
         )
         self._requests = self._session.declare_subscriber(
-            keys["req"], zenoh.handlers.FifoChannel(256)
+            keys.req, zenoh.handlers.FifoChannel(256)
         )
         self._subs.append(
             self._session.liveliness().declare_subscriber(
-                keys["alive"], self._on_liveliness, history=True
+                keys.alive, self._on_liveliness, history=True
             )
         )
+        # While this token lives, the agent knows the host does; it goes with the session,
+        # also when this process is killed (the agent's side of the link closes).
+        self._token = self._session.liveliness().declare_token(keys.host_alive)
         self._t0 = time.monotonic()
         self.recorder.event(0.0, "host_open", {"episode": self.config.episode})
 
@@ -204,7 +248,7 @@ class SimHost:
                                  name=f"close-{self.config.episode}").start()
                 self._late.join(5.0)
             self._late = None
-        for sub in [*self._subs, self._requests]:
+        for sub in [*self._subs, self._requests, self._token]:
             try:
                 if sub is not None:
                     sub.undeclare()
@@ -212,6 +256,7 @@ class SimHost:
                 pass
         self._subs.clear()
         self._requests = None
+        self._token = None
         if self._session is not None:
             self._session.close()
             self._session = None
@@ -225,6 +270,7 @@ class SimHost:
         if self._session is None:
             self.open()
         stop = stop or threading.Event()
+        self._thread_id = threading.get_ident()
         startup_deadline = time.monotonic() + self.config.startup_s
         clock = threading.Thread(
             target=self._clock, args=(stop, startup_deadline, poll_s), daemon=True,
@@ -239,11 +285,20 @@ class SimHost:
                 except Exception as e:  # noqa: BLE001 - track code at a stage end, on the clock
                     self._internal_error(e)
                     break
-                buf = self._requests.recv().payload.to_bytes()
-                if buf == self._tick:
-                    self._tick_pending = False
-                else:
-                    self._serve_one(time.monotonic(), buf)
+                finally:
+                    self._busy_since = None
+                try:
+                    buf = self._requests.recv().payload.to_bytes()
+                    if buf == self._tick:
+                        self._tick_pending = False
+                    else:
+                        self._serve_one(time.monotonic(), buf)
+                except Exception:
+                    if not self._closing:
+                        raise
+                    # close() from another thread (e.g. a watchdog) while serving: stop here.
+                    self._finish_closed()
+                    break
         finally:
             self._served = True
             self._wake.set()
@@ -257,18 +312,33 @@ class SimHost:
             clock.join()
         return self.outcome
 
+    def _finish_closed(self) -> None:
+        try:
+            self._finish(EndReason.STOPPED, "stopped")
+        except Exception as e:  # noqa: BLE001 - track code at the stage end
+            self._internal_error(e)
+
+    def progress(self) -> HostProgress:
+        """A snapshot of the serving thread's progress (safe from any thread)."""
+        return HostProgress(requests=self._requests_handled, busy_since=self._busy_since,
+                            phase=self._phase, thread_id=self._thread_id)
+
     # ------------------------------------------------------------------ the clock
     def _check_clock(self, stop: threading.Event, startup_deadline: float) -> bool:
         """On the serving thread: ends what is due; True once the episode is over."""
         while self._phase != "over":
             now = time.monotonic()
             if stop.is_set():
-                self._finish("stopped", "stopped")
+                self._busy_since = now
+                self._finish(EndReason.STOPPED, "stopped")
             elif self._agent_lost and self.outcome.agent_seen:
-                self._finish("agent_lost", "stopped")
+                self._busy_since = now
+                self._finish(EndReason.AGENT_LOST, "stopped")
             elif self._phase in ("hello", "reset") and now > startup_deadline:
-                self._finish("startup_timeout", "stopped")
+                self._busy_since = now
+                self._finish(EndReason.STARTUP_TIMEOUT, "stopped")
             elif self._phase == "running" and now >= self._stage_deadline:
+                self._busy_since = now
                 self._advance("budget")
             else:
                 return False
@@ -312,6 +382,7 @@ class SimHost:
                     return
             else:
                 try:
+                    self._rid = request_id(buf)
                     self._pub.put(self._over_reply())
                 except Exception:  # noqa: BLE001 - the session is closing: nobody to answer
                     return
@@ -327,7 +398,7 @@ class SimHost:
 
     def _over_reply(self, code: str = "episode_over", message: str | None = None) -> bytes:
         return encode(ErrorReply(
-            seq=self._seq, code=code, fatal=True,
+            seq=self._seq, id=self._rid, code=code, fatal=True,
             message=message or f"the episode is over ({self.outcome.end_reason})"))
 
     def _internal_error(self, e: BaseException) -> None:
@@ -336,13 +407,15 @@ class SimHost:
         log.exception("internal error while serving episode %s", self.config.episode)
         try:
             self._event("internal_error", {"error": f"{type(e).__name__}: {e}"})
-            self._finish("internal_error", "stopped")
+            self._finish(EndReason.INTERNAL_ERROR, "stopped")
         except Exception:  # noqa: BLE001 - the stage end failed again: end without it
             log.exception("episode %s: ending the stage failed too", self.config.episode)
             self._phase = "over"
-            self.outcome.end_reason = "internal_error"
+            self.outcome.end_reason = EndReason.INTERNAL_ERROR
 
     def _serve_one(self, received: float, buf: bytes) -> None:
+        self._busy_since = received
+        self._rid = None
         try:
             reply = self._handle(buf, received)
         except Exception as e:  # noqa: BLE001 - a host bug must still answer and be recorded
@@ -353,6 +426,8 @@ class SimHost:
             self._await_agent_subscriber()
         self._last_reply_at = time.monotonic()  # before the put: the agent may answer at once
         self._pub.put(reply)
+        self._requests_handled += 1
+        self._busy_since = None
 
     def _await_agent_subscriber(self) -> None:
         """Before the first reply (once): waits briefly until this session knows the agent's
@@ -376,19 +451,25 @@ class SimHost:
         ):
             fatal = True
             message += f" (protocol error limit {self.config.max_protocol_errors} reached)"
-            self._finish("protocol_violation", "stopped")
-        return encode(ErrorReply(seq=self._seq, code=code, message=message, fatal=fatal))
+            self._finish(EndReason.PROTOCOL_VIOLATION, "stopped")
+        return encode(ErrorReply(seq=self._seq, id=self._rid, code=code, message=message,
+                                 fatal=fatal))
 
     def _handle(self, buf: bytes, received: float) -> bytes:
         try:
             msg, tensors = decode_request(buf, max_bytes=self.config.max_request_bytes)
         except WireError as e:
+            self._rid = request_id(buf)  # the reply names the request when it can
             return self._error(e.code, str(e))
+        self._rid = msg.id
         if self._phase == "over":
             return self._error("episode_over", "the episode is over", fatal=True)
         if isinstance(msg, Hello) and self._phase == "reset" and msg.seq == 0:
-            assert self._hello_reply is not None
-            return self._hello_reply  # a resent hello (its first reply may have been missed)
+            # A resent hello (its first reply may have been missed): the same reply again.
+            assert self._hello_model is not None and self._hello_reply is not None
+            if msg.id != self._hello_model.id:
+                return encode(self._hello_model.model_copy(update={"id": msg.id}))
+            return self._hello_reply
         if msg.seq != self._seq:
             return self._error("stale", f"request seq {msg.seq}, expected {self._seq}")
         if self._last_reply_at is not None and self._phase == "running":
@@ -430,7 +511,7 @@ class SimHost:
                 "malformed", f"protocol {msg.protocol!r} not served; this host speaks "
                 f"{PROTOCOL_VERSION}", fatal=True
             )
-            self._finish("protocol_violation", "stopped")
+            self._finish(EndReason.PROTOCOL_VIOLATION, "stopped")
             return reply
         self.outcome.agent_seen = True
         self.outcome.hello_at = self._now()
@@ -440,6 +521,7 @@ class SimHost:
         scale = self.config.time_scale
         reply = HelloReply(
             seq=self._seq,
+            id=msg.id,
             episode=self.config.episode,
             track=self.config.track,
             observation_spec=self.episode.observation_spec,
@@ -457,6 +539,7 @@ class SimHost:
             max_request_bytes=self.config.max_request_bytes,
             startup_budget_s=self.config.startup_s,
         )
+        self._hello_model = reply
         self._hello_reply = encode(reply)
         self.recorder.reply(self._now(), reply, None)
         return self._hello_reply
@@ -467,6 +550,8 @@ class SimHost:
         self._phase = "running"
         self._start_stage(0)
         self._seq += 1
+        if self.recorder.pose_every:
+            self.recorder.poses(self._now(), 0, self.episode.poses())
         return self._observation(StepOutcome(observation=obs), bump=False)
 
     def _step(self, msg: Step, tensors: Mapping[str, np.ndarray]) -> bytes:
@@ -489,13 +574,16 @@ class SimHost:
             if self.outcome.steps % self.config.full_state_every == 0
             else None,
         )
+        every = self.recorder.pose_every
+        if every and self.outcome.steps % every == 0:
+            self.recorder.poses(self._now(), self.outcome.steps, self.episode.poses())
         return self._after(out)
 
     def _after(self, out: StepOutcome) -> bytes:
         for ev in out.events:
             self._event(str(ev.get("event", "track_event")), ev)
         if out.episode_over:
-            self._finish(out.end_reason or "completed", "episode_over")
+            self._finish(EndReason(out.end_reason or EndReason.COMPLETED), "episode_over")
         elif self._stage_cap is not None and self._stage_steps >= self._stage_cap:
             self._advance("steps")
         return self._observation(out)
@@ -516,6 +604,7 @@ class SimHost:
         reply = {
             "kind": "observation",
             "seq": self._seq,
+            "id": self._rid,
             "stage": stage.name,
             "stage_index": self._stage,
             "time_left_s": 0.0 if over else max(0.0, self._stage_deadline - time.monotonic()),
@@ -573,10 +662,10 @@ class SimHost:
             self._start_stage(self._stage + 1)
         else:
             self._phase = "over"
-            self.outcome.end_reason = "completed" if ended_by == "agent" else ended_by
+            self.outcome.end_reason = _LAST_STAGE_END[ended_by]
             self._event("episode_end", {"reason": self.outcome.end_reason})
 
-    def _finish(self, reason: str, ended_by: StageEnd) -> None:
+    def _finish(self, reason: EndReason, ended_by: StageEnd) -> None:
         if self._phase == "over":
             return
         # A stage whose end already began (and failed) is not ended twice.

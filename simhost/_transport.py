@@ -1,14 +1,15 @@
 """Zenoh configuration and key expressions shared by the sim host and the agent client.
 
-Keys are versioned and per episode: ``eagc/v1/<episode>/agent/{req,rep,alive}``, where
-``<episode>`` is an opaque random id. The host listens on a unix socket; the agent connects.
-Imports only zenoh (it runs inside team containers).
+Keys are versioned and per episode: ``eagc/v1/<episode>/agent/{req,rep,alive,host_alive}``,
+where ``<episode>`` is an opaque random id. The host listens on a unix socket; the agent
+connects. Imports only zenoh (it runs inside team containers).
 """
 
 from __future__ import annotations
 
 import json
 import re
+from dataclasses import dataclass
 
 import zenoh
 
@@ -22,10 +23,25 @@ def check_episode_id(episode: str) -> str:
     return episode
 
 
-def keys(episode: str) -> dict[str, str]:
+@dataclass(frozen=True)
+class EpisodeKeys:
+    """The agent-facing key expressions of one episode (the only keys its session carries)."""
+
+    #: Requests: the agent publishes, the host subscribes.
+    req: str
+    #: Replies: the host publishes, the agent subscribes.
+    rep: str
+    #: The agent's liveliness token; the host watches it (its loss ends the episode).
+    alive: str
+    #: The host's liveliness token; the agent watches it (its loss: the host is gone).
+    host_alive: str
+
+
+def keys(episode: str) -> EpisodeKeys:
     """The agent-facing keys of one episode."""
     base = f"{KEY_ROOT}/{check_episode_id(episode)}/agent"
-    return {"req": f"{base}/req", "rep": f"{base}/rep", "alive": f"{base}/alive"}
+    return EpisodeKeys(req=f"{base}/req", rep=f"{base}/rep", alive=f"{base}/alive",
+                       host_alive=f"{base}/host_alive")
 
 
 def _base_config(mode: str) -> zenoh.Config:
@@ -47,6 +63,10 @@ def host_config(episode: str, endpoints: list[str]) -> zenoh.Config:
     conf.insert_json5("listen/endpoints", json.dumps(endpoints))
     conf.insert_json5("connect/endpoints", "[]")
     conf.insert_json5("adminspace/enabled", "false")
+    # No shared memory: a sandboxed agent has no shared IPC anyway, and each session that
+    # negotiated it left the serving process holding a segment in /dev/shm and an fd (seen
+    # in the soak benchmark's long-lived Ray workers).
+    conf.insert_json5("transport/shared_memory/enabled", "false")
     allowed = f"{KEY_ROOT}/{check_episode_id(episode)}/agent/**"
     acl = {
         "enabled": True,

@@ -12,14 +12,24 @@ Needs only pydantic, eclipse-zenoh and numpy. One episode, one client::
 Every call sends one request and returns exactly one reply. Protocol errors (malformed,
 stale, out-of-range, …) raise ``HostError``; an action the world refused is not an error,
 it comes back in ``TimeStep.action`` with ``ok=False`` and a reason.
+
+Every request carries an ``id`` that its reply echoes, so that a reply that answers
+something else (a second reply to a resent ``hello``, the late reply to a request that
+timed out) is never taken for the reply to the current request. The client watches the
+host's liveliness token: when the host is gone (its process ended or was killed), a call
+under way or the next one raises ``HostLost`` at once. A reply that does not come within
+``timeout_s`` (60 s by default) raises ``TimeoutError``. The wire format is specified in
+``schemas/PROTOCOL.md``.
 """
 
 from __future__ import annotations
 
 import atexit
 import os
+import secrets
+import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -30,6 +40,7 @@ from schemas._protocol import (
     PROTOCOL_VERSION,
     ActionResult,
     Answer,
+    EndReason,
     EndStage,
     ErrorReply,
     FieldSpec,
@@ -44,10 +55,23 @@ from simhost._errors import SimHostError
 from simhost._outputs import OutputFileError, OutputFiles
 from simhost._wire import decode_observation, decode_reply, encode
 
-__all__ = ["HostError", "OutputFileError", "OutputFiles", "RemoteEnv", "TimeStep"]
+__all__ = [
+    "DEFAULT_TIMEOUT_S",
+    "HostError",
+    "HostLost",
+    "OutputFileError",
+    "OutputFiles",
+    "RemoteEnv",
+    "TimeStep",
+]
 
+#: How long a call waits for its reply by default. A live host answers within milliseconds
+#: (a stage end with the track's bookkeeping within seconds); a dead one is noticed at once
+#: through its liveliness token, so this bounds only a host that hangs.
+DEFAULT_TIMEOUT_S = 60.0
 _MATCH_WAIT_S = 5.0  # at most this long for the host's subscriber before the first hello
 _HELLO_RESEND_S = 0.5  # then hello is resent at this interval until a reply comes
+_END_REASONS = {r.value: r for r in EndReason}
 
 
 class HostError(SimHostError, RuntimeError):
@@ -57,6 +81,15 @@ class HostError(SimHostError, RuntimeError):
         super().__init__(f"[{code}{', fatal' if fatal else ''}] {message}")
         self.code = code
         self.fatal = fatal
+
+
+class HostLost(HostError):
+    """Raised when the host's liveliness token goes: the sim host ended or died, no reply
+    will come, and the episode is over (the agent should exit)."""
+
+    def __init__(self) -> None:
+        super().__init__("host_lost", "the sim host is gone (its liveliness token went): the "
+                         "episode is over", True)
 
 
 class TimeStep(NamedTuple):
@@ -70,7 +103,7 @@ class TimeStep(NamedTuple):
     action: ActionResult | None
     messages: tuple[HostMessage, ...]
     episode_over: bool
-    end_reason: str | None
+    end_reason: EndReason | None
     seq: int
 
     def message(self, type_: str) -> HostMessage | None:
@@ -84,11 +117,12 @@ class RemoteEnv:
     Args:
         endpoint: Zenoh endpoint of the host (default ``$EAGC_ENDPOINT``).
         episode: The opaque episode id (default ``$EAGC_EPISODE``).
-        timeout_s: How long to wait for a reply before raising ``TimeoutError``
-            (None, the default: as long as the host takes; the host's stage budgets and the
-            evaluator's clock bound every episode anyway). The request still counts: the
-            next call first waits (as long again) for that late reply and drops it, so that
-            requests and replies stay paired.
+        timeout_s: How long to wait for a reply before raising ``TimeoutError`` (default
+            ``DEFAULT_TIMEOUT_S``, 60 s; None waits as long as the host lives). The request
+            still counts: the next call first waits (as long again) for that late reply,
+            takes its seq and drops it, so that the next request is not refused as stale.
+
+    Raises ``HostLost`` from any call once the host is gone.
     """
 
     def __init__(
@@ -96,7 +130,7 @@ class RemoteEnv:
         endpoint: str | None = None,
         episode: str | None = None,
         *,
-        timeout_s: float | None = None,
+        timeout_s: float | None = DEFAULT_TIMEOUT_S,
     ) -> None:
         endpoint = endpoint or os.environ.get(CONTAINER.env_endpoint)
         episode = episode or os.environ.get(CONTAINER.env_episode)
@@ -105,23 +139,46 @@ class RemoteEnv:
                 f"no endpoint/episode: pass them or set {CONTAINER.env_endpoint} and "
                 f"{CONTAINER.env_episode} (the evaluator sets both in the container)"
             )
+        if timeout_s is not None and not timeout_s > 0:
+            raise ValueError(f"timeout_s must be > 0 or None, not {timeout_s!r}")
         self.episode = episode
         self._timeout = timeout_s
         self._keys = _transport.keys(episode)
         self._session = zenoh.open(_transport.agent_config(endpoint))
-        self._token = self._session.liveliness().declare_token(self._keys["alive"])
+        self._token = self._session.liveliness().declare_token(self._keys.alive)
         # A FIFO channel, not a Python callback: a callback subscriber keeps the interpreter
         # from exiting until the session is closed (seen with zenoh 1.10), and it is slower.
-        self._sub = self._session.declare_subscriber(self._keys["rep"])
+        self._sub = self._session.declare_subscriber(self._keys.rep)
         self._pub = self._session.declare_publisher(
-            self._keys["req"], congestion_control=zenoh.CongestionControl.BLOCK, express=True
+            self._keys.req, congestion_control=zenoh.CongestionControl.BLOCK, express=True
         )
+        # Wakes a call blocked on the reply channel (host gone, deadline): a message to this
+        # session's own reply channel that never leaves the process.
+        self._wake_token = b"wake:" + secrets.token_bytes(16)
+        self._waker = self._session.declare_publisher(
+            self._keys.rep, allowed_destination=zenoh.Locality.SESSION_LOCAL
+        )
+        self._host_seen = False
+        self._host_gone = False
         self._seq = 0
-        self._owed = 0  # replies still due to requests that timed out
+        self._next_id = 1
+        self._late: list[int] = []  # ids of requests that timed out: their replies are due
+        self._deadline: float | None = None  # of the call under way
         self._tensors: dict[str, np.ndarray] = {}
         self._results: dict[tuple[bool, bool, str], ActionResult] = {}
         self._closed = False
+        self._stop = threading.Event()
         self.spec: HelloReply | None = None
+        # The host's token, watched from a daemon thread blocked on a FIFO channel: a Python
+        # callback would run on a non-daemon thread that keeps the interpreter from exiting.
+        self._host_watch = self._session.liveliness().declare_subscriber(
+            self._keys.host_alive, zenoh.handlers.FifoChannel(16), history=True
+        )
+        threading.Thread(target=self._watch_host, daemon=True,
+                         name=f"eagc-host-{episode}").start()
+        if timeout_s is not None:
+            threading.Thread(target=self._watch_deadlines, daemon=True,
+                             name=f"eagc-deadline-{episode}").start()
         atexit.register(self.close)
 
     # ------------------------------------------------------------------ public calls
@@ -130,25 +187,26 @@ class RemoteEnv:
         # A put is delivered only to subscribers this session already knows of: wait
         # (briefly) until the host's request subscriber is known, so the first hello is not
         # lost. It is still resent until a reply comes; the host answers a resent hello
-        # with the same reply, and _call skips the duplicates.
+        # with the same reply, and the client skips the duplicates by their id.
         deadline = time.monotonic() + _MATCH_WAIT_S
         while not self._pub.matching_status.matching and time.monotonic() < deadline:
+            if self._host_gone:
+                raise HostLost()
             time.sleep(0.001)
-        reply = self._call(Hello(seq=self._seq, protocol=PROTOCOL_VERSION, agent=agent), {},
-                           resend_every_s=_HELLO_RESEND_S)
+        reply = self._call(
+            lambda rid: Hello(seq=self._seq, id=rid, protocol=PROTOCOL_VERSION, agent=agent),
+            {}, resend_every_s=_HELLO_RESEND_S,
+        )
         assert isinstance(reply, HelloReply)
         self.spec = reply
         return reply
 
     def reset(self) -> TimeStep:
         """Starts the first stage."""
-        self._settle()
-        return self._timestep(self._call(Reset(seq=self._seq), {}))
+        return self._timestep(self._call(lambda rid: Reset(seq=self._seq, id=rid), {}))
 
     def step(self, action: Mapping[str, Any]) -> TimeStep:
         """Applies one action; numpy arrays travel as binary tensors."""
-        if self._owed:
-            self._settle()
         plain: dict[str, Any] = {}
         tensors: dict[str, np.ndarray] = {}
         for k, v in action.items():
@@ -159,19 +217,19 @@ class RemoteEnv:
             else:
                 plain[k] = v
         # A plain dict with Step's fields: the host validates every request anyway.
-        return self._timestep(
-            self._call({"kind": "step", "seq": self._seq, "action": plain}, tensors)
-        )
+        return self._timestep(self._call(
+            lambda rid: {"kind": "step", "seq": self._seq, "id": rid, "action": plain}, tensors
+        ))
 
     def answer(self, answers: Mapping[str, Any]) -> TimeStep:
         """Answers the host's queries (keyed by query id)."""
-        self._settle()
-        return self._timestep(self._call(Answer(seq=self._seq, answers=dict(answers)), {}))
+        return self._timestep(self._call(
+            lambda rid: Answer(seq=self._seq, id=rid, answers=dict(answers)), {}))
 
     def end_stage(self, payload: Mapping[str, Any] | None = None) -> TimeStep:
         """Ends the current stage early (Track 1: the plan goes in ``payload``)."""
-        self._settle()
-        return self._timestep(self._call(EndStage(seq=self._seq, payload=dict(payload or {})), {}))
+        return self._timestep(self._call(
+            lambda rid: EndStage(seq=self._seq, id=rid, payload=dict(payload or {})), {}))
 
     @property
     def observation_spec(self) -> tuple[FieldSpec, ...]:
@@ -185,13 +243,19 @@ class RemoteEnv:
     def stages(self) -> tuple[StageInfo, ...]:
         return self._require_spec().stages
 
+    @property
+    def host_alive(self) -> bool:
+        """False once the host is known to be gone."""
+        return not self._host_gone
+
     def close(self) -> None:
         """Leaves the episode (the host sees the liveliness token go). Idempotent."""
         if self._closed:
             return
         self._closed = True
+        self._stop.set()
         atexit.unregister(self.close)
-        for undeclare in (self._pub, self._sub, self._token):
+        for undeclare in (self._host_watch, self._waker, self._pub, self._sub, self._token):
             try:
                 undeclare.undeclare()
             except Exception:  # noqa: BLE001 - closing must not raise
@@ -210,61 +274,147 @@ class RemoteEnv:
             raise RuntimeError("call hello() first")
         return self.spec
 
-    def _call(
-        self, msg: Any, tensors: dict[str, np.ndarray], *, resend_every_s: float | None = None
-    ) -> Any:
-        buf = encode(msg, tensors)
-        self._pub.put(buf)
-        deadline = None if self._timeout is None else time.monotonic() + self._timeout
-        while True:
+    def _watch_host(self) -> None:
+        """Follows the host's liveliness token (its own thread, until the client closes)."""
+        recv = self._host_watch.recv
+        while not self._closed:
             try:
+                sample = recv()
+            except Exception:  # noqa: BLE001 - the channel closed with the client
+                return
+            if sample.kind == zenoh.SampleKind.PUT:
+                self._host_seen = True
+            elif self._host_seen:
+                self._host_gone = True
+                self._wake()
+
+    def _wake(self) -> None:
+        try:
+            self._waker.put(self._wake_token)
+        except Exception:  # noqa: BLE001 - closed meanwhile: nobody is waiting
+            pass
+
+    def _watch_deadlines(self) -> None:
+        """Wakes the call under way when its deadline passes (its own thread)."""
+        timeout = self._timeout or 1.0
+        woken: float | None = None
+        while not self._stop.is_set():
+            deadline, now = self._deadline, time.monotonic()
+            if deadline is None:
+                wait = timeout  # a call starting now ends no sooner than this
+            elif now < deadline:
+                wait = deadline - now
+            else:
+                if deadline != woken:
+                    woken = deadline
+                    self._wake()
+                wait = timeout
+            self._stop.wait(wait)
+
+    def _call(
+        self,
+        build: Callable[[int], Any],
+        tensors: dict[str, np.ndarray],
+        *,
+        resend_every_s: float | None = None,
+    ) -> Any:
+        if self._closed:
+            raise RuntimeError("this RemoteEnv is closed")
+        if self._late:
+            self._settle()
+        if self._host_gone:
+            raise HostLost()
+        rid = self._next_id
+        self._next_id += 1
+        buf = encode(build(rid), tensors)
+        deadline = None if self._timeout is None else time.monotonic() + self._timeout
+        self._deadline = deadline
+        self._pub.put(buf)
+        try:
+            while True:
                 payload = self._wait(buf, deadline, resend_every_s)
-            except TimeoutError:
-                self._owed += 1  # the host answers every request: its reply comes later
-                raise
-            fast = decode_observation(payload)
-            if fast is not None:  # the common case: no validation of the trusted host's reply
-                self._seq = fast[0]["seq"]
-                self._tensors = fast[1]
-                return fast[0]
-            reply, rtensors = decode_reply(payload)
-            # A second answer to a resent hello: it answers nothing that is waiting now.
-            if not isinstance(reply, HelloReply) or isinstance(msg, Hello):
+                fast = decode_observation(payload)
+                if fast is not None:  # the common case: the trusted host's reply, unvalidated
+                    doc = fast[0]
+                    got = doc.get("id")
+                    if got is not None and got != rid:
+                        self._drop(got, doc["seq"])
+                        continue
+                    self._seq = doc["seq"]
+                    self._tensors = fast[1]
+                    return doc
+                reply, rtensors = decode_reply(payload)
+                if reply.id is not None and reply.id != rid:
+                    self._drop(reply.id, reply.seq)
+                    continue
                 break
-        if isinstance(reply, ErrorReply):
-            self._seq = reply.seq
-            raise HostError(reply.code, reply.message, reply.fatal)
+        except TimeoutError:
+            self._late.append(rid)  # the host answers every request: its reply comes later
+            raise
+        finally:
+            self._deadline = None
         self._seq = reply.seq
+        if isinstance(reply, ErrorReply):
+            raise HostError(reply.code, reply.message, reply.fatal)
         self._tensors = rtensors
         return reply
 
+    def _drop(self, rid: int | None, seq: int) -> None:
+        """A reply to another request: the late reply to one that timed out (its seq is
+        the host's latest), or a second reply to a resent hello (nothing to take). A reply
+        without an id comes from a host older than request ids: it is taken in order."""
+        if rid in self._late:
+            self._late.remove(rid)
+            self._seq = seq
+
     def _settle(self) -> None:
         """Takes the replies still due to requests that timed out, so that the next request
-        and its reply pair up again: the host answers every request exactly once, in order.
-        Their content is dropped (the caller already got TimeoutError); their seq is kept."""
-        while self._owed:
-            deadline = None if self._timeout is None else time.monotonic() + self._timeout
-            payload = self._wait(b"", deadline, None)  # TimeoutError: still due, still owed
-            self._owed -= 1
-            fast = decode_observation(payload)
-            self._seq = fast[0]["seq"] if fast is not None else decode_reply(payload)[0].seq
+        carries the host's current seq. Their content is dropped (the caller already got
+        TimeoutError)."""
+        deadline = None if self._timeout is None else time.monotonic() + self._timeout
+        self._deadline = deadline
+        try:
+            while self._late:
+                payload = self._wait(b"", deadline, None)  # TimeoutError: still due
+                fast = decode_observation(payload)
+                if fast is not None:
+                    rid, seq = fast[0].get("id"), fast[0]["seq"]
+                else:
+                    reply = decode_reply(payload)[0]
+                    rid, seq = reply.id, reply.seq
+                self._drop(self._late[0] if rid is None else rid, seq)
+        finally:
+            self._deadline = None
+
+    def _raise_if_due(self, deadline: float | None) -> None:
+        if self._host_gone:
+            raise HostLost()
+        if deadline is not None and time.monotonic() >= deadline:
+            raise TimeoutError(f"no reply from the host within {self._timeout} s")
 
     def _wait(self, buf: bytes, deadline: float | None, resend_every_s: float | None) -> bytes:
-        if deadline is None and resend_every_s is None:
-            return self._sub.recv().payload.to_bytes()
+        wake = self._wake_token
+        if resend_every_s is None:
+            recv = self._sub.recv
+            while True:  # blocks; the deadline watcher or a lost host wakes it
+                payload = recv().payload.to_bytes()
+                if payload != wake:
+                    return payload
+                self._raise_if_due(deadline)
         started = time.monotonic()
-        resend_at = None if resend_every_s is None else started + resend_every_s
+        resend_at = started + resend_every_s
         while True:
             sample = self._sub.try_recv()
             if sample is not None:
-                return sample.payload.to_bytes()
+                payload = sample.payload.to_bytes()
+                if payload != wake:
+                    return payload
+            self._raise_if_due(deadline)
             now = time.monotonic()
-            if deadline is not None and now >= deadline:
-                raise TimeoutError(f"no reply from the host within {self._timeout} s")
-            if resend_at is not None and now >= resend_at:
+            if now >= resend_at:
                 # Only hello is resent (the host answers a resent hello with the same reply).
                 self._pub.put(buf)
-                resend_at = now + (resend_every_s or 1.0)
+                resend_at = now + resend_every_s
             # A FIFO channel has no timed wait: poll, yielding at once while a reply is
             # likely close, then gently.
             time.sleep(0 if now - started < 0.005 else 0.0002)
@@ -282,6 +432,7 @@ class RemoteEnv:
                 if len(self._results) > 256:
                     self._results.clear()
         messages = reply.get("messages")
+        end = reply.get("end_reason")
         return TimeStep(
             observation=obs,
             stage=reply["stage"],
@@ -292,6 +443,6 @@ class RemoteEnv:
             messages=tuple(HostMessage.model_construct(**m) for m in messages) if messages
             else (),
             episode_over=reply.get("episode_over", False),
-            end_reason=reply.get("end_reason"),
+            end_reason=None if end is None else _END_REASONS.get(end, end),
             seq=reply["seq"],
         )

@@ -5,6 +5,10 @@ A point robot in a 4 m arena. Stage ``explore``: find the target and write its p
 comes within 0.5 m, the controlled exception may move the target (``target_moved``); the
 agent should notice, log an ``exception_detected`` record, update its model and reach the
 new place. The score has the five components of Track 1's equation (1).
+
+Scenario parameters (a campaign's split ``params``): ``exception_probability``, and
+``render_rgbd`` / ``image_size`` ([width, height]) to add the overhead camera's ``rgb``,
+``depth`` and ``segmentation`` to the observation, as Track 1 does when it renders.
 """
 
 from __future__ import annotations
@@ -15,9 +19,16 @@ from typing import Any
 import numpy as np
 
 from plugins._base import FileRule, Scenario, ScoringInput, TrackPlugin
-from schemas import FieldSpec, ScoreCard, WorldModel
+from schemas import EndReason, FieldSpec, ScoreCard, WorldModel
 from schemas._protocol import ActionResult, HostMessage
-from simhost._episode import Observation, StageEnd, StageSpec, StepOutcome, TrackEpisode
+from simhost._episode import (
+    Observation,
+    Pose,
+    StageEnd,
+    StageSpec,
+    StepOutcome,
+    TrackEpisode,
+)
 
 TRIGGER_RADIUS = 0.5
 DETECT_WINDOW = 20  # steps after the exception's first observable effect
@@ -33,21 +44,40 @@ class SanityEpisode(TrackEpisode):
     """One live sanity episode around ``SanityArenaEnv``."""
 
     def __init__(self, scenario: Scenario) -> None:
-        from simhost.sanity import HALF, SanityArenaEnv
+        from simhost.sanity import HALF, MAX_DEPTH, SENSE_RADIUS, SanityArenaEnv
 
         self.scenario = scenario
-        self.env = SanityArenaEnv()
+        p = scenario.params
+        render = bool(p.get("render_rgbd", False))
+        w, h = (int(v) for v in p.get("image_size", (64, 64)))
+        self.env = SanityArenaEnv(render_rgbd=render, image_size=(w, h))
         self.observation_spec = (
-            _tensor("position", (2,), -HALF, HALF, "odometry x, y (m)"),
-            _tensor("velocity", (2,), -5, 5, "velocity (m/s)"),
-            _tensor("target_visible", (1,), 0, 1, "1 when the target is within sensing range"),
-            _tensor("target_rel", (2,), -2 * HALF, 2 * HALF, "target minus position, if visible"),
+            _tensor("position", (2,), -HALF, HALF,
+                    "robot x, y in the arena frame (m; origin at the centre, walls at ±2)"),
+            _tensor("velocity", (2,), -5, 5, "robot velocity x, y (m/s)"),
+            _tensor("target_visible", (1,), 0, 1,
+                    f"1.0 when the target is within {SENSE_RADIUS} m, else 0.0"),
+            _tensor("target_rel", (2,), -2 * HALF, 2 * HALF,
+                    "target minus robot position x, y (m) when visible, else 0, 0"),
         )
+        if render:
+            n_ids = self.env.model.ngeom + self.env.model.nsite
+            self.observation_spec += (
+                FieldSpec(name="rgb", dtype="uint8", shape=(h, w, 3), low=0, high=255,
+                          tensor=True, description="overhead camera colour image, row 0 at "
+                          "+y (north)"),
+                FieldSpec(name="depth", dtype="float32", shape=(h, w), low=0, high=MAX_DEPTH,
+                          tensor=True, description=f"overhead camera depth (m from the "
+                          f"camera; {MAX_DEPTH:g} where nothing is seen)"),
+                FieldSpec(name="segmentation", dtype="int32", shape=(h, w), low=-1,
+                          high=n_ids - 1, tensor=True, description="overhead camera: id of "
+                          "the thing seen (target: the largest id), -1 for nothing"),
+            )
         self.action_spec = (
             FieldSpec(name="velocity", dtype="float32", shape=(2,), low=-1.0, high=1.0,
-                      description="desired velocity, scaled to 1 m/s"),
+                      description="desired robot velocity x, y as a fraction of 1 m/s; "
+                      "applied for 0.1 s"),
         )
-        p = scenario.params
         self._start = np.asarray(p["start"])
         self._target = np.asarray(p["target"])
         self._moved_to = None if p.get("moved_target") is None else np.asarray(p["moved_target"])
@@ -114,7 +144,7 @@ class SanityEpisode(TrackEpisode):
                     observation=self.observe(),
                     action=ActionResult(applied=True, ok=True),
                     episode_over=True,
-                    end_reason="completed",
+                    end_reason=EndReason.COMPLETED,
                     events=({"event": "task_completed", "step": self._steps},),
                 )
         return StepOutcome(
@@ -125,6 +155,12 @@ class SanityEpisode(TrackEpisode):
 
     def sim_state(self) -> bytes:
         return self.env.get_state()
+
+    def poses(self) -> Mapping[str, Pose]:
+        x, y = self.env.position
+        tx, ty = self.env.target
+        return {"robot": Pose(position=(float(x), float(y), 0.1)),
+                "target": Pose(position=(float(tx), float(ty), 0.02))}
 
     def state_hash(self) -> str:
         return self.env.state_hash()
@@ -196,6 +232,10 @@ class SanityTrack(TrackPlugin):
             moved = sample_point(rng)
             while np.linalg.norm(moved - target) < 1.0:
                 moved = sample_point(rng)
+        camera: dict[str, Any] = {}
+        if merged.get("render_rgbd"):
+            size = merged.get("image_size", (64, 64))
+            camera = {"render_rgbd": True, "image_size": [int(size[0]), int(size[1])]}
         return Scenario(
             track=self.name,
             split=split,
@@ -204,6 +244,7 @@ class SanityTrack(TrackPlugin):
                 "start": start.tolist(),
                 "target": target.tolist(),
                 "moved_target": None if moved is None else moved.tolist(),
+                **camera,
             },
         )
 

@@ -2,6 +2,10 @@
 
 Small on purpose (pipeline tests stay fast) but real: MuJoCo physics with contacts, a
 sensing radius, and a perturbation (the target moves) that the track uses as its exception.
+With ``render_rgbd=True`` the observation also carries the overhead camera's images under
+the names every track uses: ``rgb`` (H×W×3 uint8), ``depth`` (H×W float32, metres from the
+camera, ``MAX_DEPTH`` where nothing is seen) and ``segmentation`` (H×W int32: the geom id,
+``ngeom`` + site id for the target, -1 for background).
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ SENSE_RADIUS = 1.2
 REACH_RADIUS = 0.15
 MAX_SPEED = 1.0  # m/s at |action| = 1
 CONTROL_DT = 0.1
+MAX_DEPTH = 20.0  # m: depth where the overhead camera sees nothing
 TIMESTEP = 0.01
 
 _XML = """
@@ -62,7 +67,13 @@ class SanityArenaEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": int(1 / CONTROL_DT)}
 
-    def __init__(self, render_mode: str | None = None) -> None:
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        *,
+        render_rgbd: bool = False,
+        image_size: tuple[int, int] = (64, 64),
+    ) -> None:
         self.model = mujoco.MjModel.from_xml_string(arena_xml())
         self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
         self.data = mujoco.MjData(self.model)
@@ -74,15 +85,23 @@ class SanityArenaEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._substeps = round(CONTROL_DT / TIMESTEP)
         self.render_mode = render_mode
         self._renderer: mujoco.Renderer | None = None
+        self.render_rgbd = render_rgbd
+        self.image_size = (int(image_size[0]), int(image_size[1]))  # width, height
+        self._camera: mujoco.Renderer | None = None
         box = gym.spaces.Box
-        self.observation_space = gym.spaces.Dict(
-            {
-                "position": box(-HALF, HALF, (2,), np.float32),
-                "velocity": box(-5.0, 5.0, (2,), np.float32),
-                "target_visible": box(0.0, 1.0, (1,), np.float32),
-                "target_rel": box(-2 * HALF, 2 * HALF, (2,), np.float32),
-            }
-        )
+        spaces: dict[str, gym.Space[Any]] = {
+            "position": box(-HALF, HALF, (2,), np.float32),
+            "velocity": box(-5.0, 5.0, (2,), np.float32),
+            "target_visible": box(0.0, 1.0, (1,), np.float32),
+            "target_rel": box(-2 * HALF, 2 * HALF, (2,), np.float32),
+        }
+        if render_rgbd:
+            w, h = self.image_size
+            spaces["rgb"] = box(0, 255, (h, w, 3), np.uint8)
+            spaces["depth"] = box(0.0, MAX_DEPTH, (h, w), np.float32)
+            n_ids = self.model.ngeom + self.model.nsite
+            spaces["segmentation"] = box(-1, n_ids - 1, (h, w), np.int32)
+        self.observation_space = gym.spaces.Dict(spaces)
         self.action_space = box(-1.0, 1.0, (2,), np.float32)
         self.target = np.zeros(2)
         self.collisions = 0
@@ -138,9 +157,10 @@ class SanityArenaEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return self._renderer.render()
 
     def close(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        for r in (self._renderer, self._camera):
+            if r is not None:
+                r.close()
+        self._renderer = self._camera = None
 
     # --------------------------------------------------------- world (for the plugin)
     @property
@@ -193,12 +213,37 @@ class SanityArenaEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def _obs(self) -> dict[str, np.ndarray]:
         visible = self.target_visible()
         rel = (self.target - self.position) if visible else np.zeros(2)
-        return {
+        obs = {
             "position": self.position.astype(np.float32),
             "velocity": np.clip(self.data.qvel[:2], -5, 5).astype(np.float32),
             "target_visible": np.array([float(visible)], dtype=np.float32),
             "target_rel": rel.astype(np.float32),
         }
+        if self.render_rgbd:
+            obs["rgb"], obs["depth"], obs["segmentation"] = self._render_rgbd()
+        return obs
+
+    def _render_rgbd(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The overhead camera: colour, depth (m) and segmentation, on the calling thread."""
+        w, h = self.image_size
+        if self._camera is None:
+            self._camera = mujoco.Renderer(self.model, h, w)
+        r = self._camera
+        r.update_scene(self.data, camera="top")
+        rgb = r.render().copy()
+        r.enable_depth_rendering()
+        depth = np.minimum(r.render(), MAX_DEPTH).astype(np.float32)
+        r.disable_depth_rendering()
+        r.enable_segmentation_rendering()
+        seg = r.render()
+        r.disable_segmentation_rendering()
+        ids, types = seg[..., 0], seg[..., 1]
+        out = np.full((h, w), -1, np.int32)
+        geom = types == int(mujoco.mjtObj.mjOBJ_GEOM)
+        site = types == int(mujoco.mjtObj.mjOBJ_SITE)
+        out[geom] = ids[geom]
+        out[site] = self.model.ngeom + ids[site]
+        return rgb, depth, out
 
     def _info(self) -> dict[str, Any]:
         return {"collisions": self.collisions, "sim_warnings": self.sim_warnings}

@@ -39,13 +39,34 @@ def test_promtool_accepts_config_and_rules() -> None:
         assert r.returncode == 0, r.stdout + r.stderr
     rules = yaml.safe_load((DEPLOY / "prometheus" / "alerts.yml").read_text())
     names = {r["alert"] for g in rules["groups"] for r in g["rules"]}
-    assert {"EagcCampaignStuck", "EagcHighFailureRate", "EagcNoProgress"} <= names
+    assert {"EagcCampaignStuck", "EagcHighFailureRate", "EagcNoProgress", "EagcTeamFailing",
+            "EagcDriverDown"} <= names
+    config = yaml.safe_load((DEPLOY / "prometheus" / "prometheus.yml").read_text())
+    # Ray's metrics agent needs ray[default], which the worker image does not have: a `ray`
+    # job would always be down (issue 13 §11), so there is none.
+    assert [j["job_name"] for j in config["scrape_configs"]] == ["eagc-driver"]
+
+
+def test_alert_rules_pass_their_unit_tests() -> None:
+    """deploy/prometheus/alerts_test.yml: a team failing most of its episodes, a driver
+    that stopped reporting mid-campaign (and not one that finished), first failures counted
+    from series that start at 0."""
+    promtool = _tool("promtool", "prometheus")
+    r = subprocess.run([promtool, "test", "rules", "alerts_test.yml"], capture_output=True,
+                       text=True, cwd=DEPLOY / "prometheus")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "SUCCESS" in r.stdout + r.stderr
 
 
 def test_compose_file_resolves() -> None:
     compose = _tool("docker-compose", "docker-compose")
+    env = {k: v for k, v in os.environ.items() if k != "RAY_AUTH_TOKEN"}
     r = subprocess.run([compose, "-f", str(DEPLOY / "docker-compose.yml"), "config"],
-                       capture_output=True, text=True, env={**os.environ, "EAGC_HOME": "/srv/x"})
+                       capture_output=True, text=True, env={**env, "EAGC_HOME": "/srv/x"})
+    assert r.returncode != 0 and "RAY_AUTH_TOKEN" in r.stderr  # no token: a clear refusal
+    r = subprocess.run([compose, "-f", str(DEPLOY / "docker-compose.yml"), "config"],
+                       capture_output=True, text=True,
+                       env={**env, "EAGC_HOME": "/srv/x", "RAY_AUTH_TOKEN": "t0ken"})
     assert r.returncode == 0, r.stderr
     doc = yaml.safe_load(r.stdout)
     assert set(doc["services"]) == {"ray-head", "prometheus", "grafana"}
@@ -56,6 +77,8 @@ def test_compose_file_resolves() -> None:
                for v in volumes), volumes
     assert any("docker.sock" in v for v in volumes)
     assert "eagc_slot" in " ".join(head["command"])
+    assert head["environment"]["RAY_AUTH_MODE"] == "token"
+    assert head["environment"]["RAY_AUTH_TOKEN"] == "t0ken"
 
 
 def test_ray_cluster_config_matches_rays_schema() -> None:
@@ -96,7 +119,8 @@ def test_grafana_dashboard_is_complete() -> None:
     for metric in ("eagc_campaign_episodes", "eagc_episodes_running", "eagc_episodes_total",
                    "eagc_episode_duration_seconds", "eagc_agent_step_latency_seconds",
                    "eagc_invalid_actions_total", "eagc_episode_retries_total",
-                   "eagc_episode_score", "eagc_container_peak_memory_bytes"):
+                   "eagc_episode_score", "eagc_container_peak_memory_bytes",
+                   "eagc_containers_reaped_total", "eagc_store_errors_total"):
         assert metric in exprs, f"no panel shows {metric}"
     ids = [p["id"] for p in doc["panels"]]
     assert len(ids) == len(set(ids))

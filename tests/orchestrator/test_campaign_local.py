@@ -34,6 +34,7 @@ from orchestrator._leaderboard import build_leaderboard
 from orchestrator._metrics import CampaignMetrics
 from orchestrator._seeds import load_secret, seed_list
 from orchestrator._store import ResultsStore
+from schemas import EpisodeStatus
 
 pytestmark = [pytest.mark.docker, pytest.mark.slow]
 
@@ -155,7 +156,10 @@ def test_prometheus_scraped_the_episode_counts(run: Run) -> None:
         f'sum by (status) (last_over_time(eagc_episodes_total{{campaign="{run.spec.name}"}}[10m]))')
     assert res["status"] == "success", res
     got = {r["metric"]["status"]: float(r["value"][1]) for r in res["data"]["result"]}
-    assert got == {"completed": 4.0, "agent_crash": 4.0, "agent_oom": 4.0}
+    assert {k: v for k, v in got.items() if v} == {"completed": 4.0, "agent_crash": 4.0,
+                                                    "agent_oom": 4.0}
+    # Every status's series exists from the start, at 0 (issue 13 §10).
+    assert set(got) == {s.value for s in EpisodeStatus}
     res = run.prometheus.query(
         f'last_over_time(eagc_campaign_episodes{{campaign="{run.spec.name}",state="done"}}[10m])')
     assert float(res["data"]["result"][0]["value"][1]) == 12.0

@@ -36,7 +36,8 @@ LIGHT_DISTRIBUTIONS = (
 
 
 def _imported_after(code: str) -> list[str]:
-    probe = f"{code}\nimport json, sys\nprint(json.dumps(sorted(sys.modules)))"
+    probe = (f"{code}\nimport json, sys\n"
+             "print(json.dumps(sorted(k for k, v in sys.modules.items() if v is not None)))")
     out = subprocess.run(
         [sys.executable, "-c", probe], capture_output=True, text=True, check=True, cwd=ROOT
     )
@@ -47,11 +48,17 @@ def _heavy(modules: list[str], heavy: tuple[str, ...] = HEAVY) -> list[str]:
     return sorted(m for m in modules if m.split(".")[0] in heavy)
 
 
-def test_agent_client_imports_nothing_heavy():
-    modules = _imported_after(
-        "import simhost, simhost.agent\nfrom simhost.agent import HostError, RemoteEnv, TimeStep"
-    )
+_CLIENT = "import simhost, simhost.agent\nfrom simhost.agent import HostError, RemoteEnv, TimeStep"
+
+
+@pytest.mark.parametrize("gymnasium", ["installed", "absent"])
+def test_agent_client_imports_nothing_heavy(gymnasium):
+    # Absent as in a team's container (an import of it fails). Installed, the environments
+    # register only once gymnasium is imported: the client imports neither it nor a track.
+    block = "import sys\nsys.modules['gymnasium'] = None\n" if gymnasium == "absent" else ""
+    modules = _imported_after(block + _CLIENT)
     assert not _heavy(modules), "simhost.agent must stay light (team containers import it)"
+    assert not [m for m in modules if m.startswith(("simhost.track", "simhost.sanity"))]
 
 
 def test_schemas_import_only_pydantic():

@@ -8,8 +8,6 @@ on a bare Zenoh session, the way a broken client would send them.
 
 from __future__ import annotations
 
-import json
-import queue
 import signal
 import struct
 import subprocess
@@ -23,7 +21,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-import zenoh
+from _raw_agent import GO, RawAgent, frame
 
 from schemas import (
     Answer,
@@ -35,67 +33,7 @@ from schemas import (
     Reset,
     Step,
 )
-from simhost._transport import agent_config, keys
-from simhost._wire import MAGIC, decode_reply, encode
-
-GO = {"velocity": [0.3, -0.2]}
-
-
-def frame(header: bytes | str | dict[str, Any], block: bytes = b"", *, hlen: int | None = None
-          ) -> bytes:
-    """A v1 buffer around any header (not validated), padded the way the encoder pads."""
-    if isinstance(header, dict):
-        header = json.dumps(header)
-    if isinstance(header, str):
-        header = header.encode()
-    header += b" " * ((-(8 + len(header))) % 8)
-    return struct.pack("<4sI", MAGIC, len(header) if hlen is None else hlen) + header + block
-
-
-class RawAgent:
-    """A bare Zenoh client of one episode: publishes bytes, returns the decoded reply."""
-
-    timeout_s = 10.0
-
-    def __init__(self, endpoint: str, episode: str) -> None:
-        k = keys(episode)
-        conf = agent_config(endpoint)
-        # open() otherwise sometimes waits 0.5 s for scouting; matching is awaited below.
-        conf.insert_json5("scouting/delay", "0")
-        self.session = zenoh.open(conf)
-        self.token = self.session.liveliness().declare_token(k["alive"])
-        self.replies: queue.SimpleQueue[bytes] = queue.SimpleQueue()
-        self.sub = self.session.declare_subscriber(
-            k["rep"], lambda s: self.replies.put(s.payload.to_bytes())
-        )
-        self.pub = self.session.declare_publisher(
-            k["req"], congestion_control=zenoh.CongestionControl.BLOCK
-        )
-        deadline = time.monotonic() + 5.0
-        while not self.pub.matching_status.matching:  # the host's subscriber is known here
-            assert time.monotonic() < deadline, "the host's request subscriber never showed up"
-            time.sleep(0.005)
-        self.seq = 0
-
-    def send(self, buf: bytes) -> Any:
-        self.pub.put(buf)
-        reply, _ = decode_reply(self.replies.get(timeout=self.timeout_s))
-        self.seq = reply.seq
-        return reply
-
-    def call(self, model: type, tensors: dict[str, np.ndarray] | None = None, **fields: Any
-             ) -> Any:
-        return self.send(encode(model(seq=self.seq, **fields), tensors))
-
-    def start(self) -> ObservationReply:
-        assert isinstance(self.call(Hello, agent="raw/1"), HelloReply)
-        reply = self.call(Reset)
-        assert isinstance(reply, ObservationReply) and reply.stage == "explore"
-        return reply
-
-    def close(self) -> None:
-        if not self.session.is_closed():
-            self.session.close()
+from simhost._wire import MAGIC, encode
 
 
 @pytest.fixture
@@ -169,7 +107,34 @@ def _empty_with_huge_dim(seq: int) -> bytes:
     return frame({"kind": "step", "seq": seq, "tensors": [t]})
 
 
+def _velocity_frame(seq: int, offset: int, block: bytes, nbytes: int = 8) -> bytes:
+    t = {"name": "velocity", "dtype": "float32", "shape": [2], "offset": offset,
+         "nbytes": nbytes}
+    return frame({"kind": "step", "seq": seq, "tensors": [t]}, block)
+
+
+_GO = np.array([0.9, 0.9], np.float32).tobytes()  # a valid action, if it were applied
+_BAD_HEADER = b'{"kind": "step", "seq": 0, "action": {"velocity": [0.9, 0.9]}}'
+
+
+def _unpadded_header(seq: int) -> bytes:
+    header = _BAD_HEADER.replace(b'"seq": 0', f'"seq": {seq}'.encode())
+    header += b" " * ((-(8 + len(header))) % 8 + 1)  # one space too many
+    return struct.pack("<4sI", MAGIC, len(header)) + header + bytes(7)
+
+
 MALFORMED: dict[str, Callable[[int], bytes]] = {
+    # Framing that is almost right: each would apply a plausible action if it were read.
+    "trailing bytes": lambda seq: _velocity_frame(seq, 0, _GO + bytes(8)),
+    "missing bytes": lambda seq: _velocity_frame(seq, 0, _GO[:4]),
+    "misaligned tensor": lambda seq: _velocity_frame(seq, 4, bytes(4) + _GO + bytes(4)),
+    "tensor after a gap": lambda seq: _velocity_frame(seq, 8, bytes(8) + _GO),
+    "header padding wrong": _unpadded_header,
+    "padding not zero": lambda seq: frame(
+        {"kind": "step", "seq": seq, "tensors": [{"name": "velocity", "dtype": "uint8",
+                                                   "shape": [2], "offset": 0, "nbytes": 2}]},
+        b"\x01\x01" + b"\x01" * 6),
+
     "empty": lambda seq: b"",
     "shorter than the frame": lambda seq: MAGIC + b"\x01",
     "not the magic": lambda seq: b"EGC0" + encode(Step(seq=seq, action=GO))[4:],
@@ -186,10 +151,22 @@ MALFORMED: dict[str, Callable[[int], bytes]] = {
 }
 
 
-@pytest.mark.parametrize("make", MALFORMED.values(), ids=MALFORMED.keys())
-def test_malformed_request_is_refused_and_counted(host_episode, agent, make):
+# What the error reply must name, for the framing cases.
+NAMED = {
+    "trailing bytes": "8 trailing byte",
+    "missing bytes": "ends 4 byte(s) early",
+    "misaligned tensor": "'velocity' at offset 4 is misaligned",
+    "tensor after a gap": "'velocity' at offset 8 leaves a gap",
+    "header padding wrong": "must be a multiple of 8",
+    "padding not zero": "padding after it is not zero",
+}
+
+
+@pytest.mark.parametrize("name", MALFORMED)
+def test_malformed_request_is_refused_and_counted(host_episode, agent, name):
     agent.start()
-    expect_error(agent, make(agent.seq), "malformed", host_episode)
+    reply = expect_error(agent, MALFORMED[name](agent.seq), "malformed", host_episode)
+    assert NAMED.get(name, "") in reply.message
     serves_normally(agent)
     outcome = finish(agent, host_episode)
     assert dict(outcome.protocol_errors) == {"malformed": 1}
@@ -391,15 +368,16 @@ def test_agent_that_never_says_hello_runs_out_of_startup_time(sim_host, connect)
 # -------------------------------------------------------------------------- startup
 def test_resent_hello_is_answered_again_and_the_client_skips_the_second_reply(host_episode):
     """A hello is resent when its reply is slow; the host answers every copy with the same
-    reply, and RemoteEnv must not take the second one for the reply to reset."""
+    reply (echoing the copy's id), and RemoteEnv must not take a second one for the reply
+    to reset: it matches replies by request id."""
     from simhost.agent import RemoteEnv
 
     env = RemoteEnv(host_episode.endpoint, host_episode.episode, timeout_s=10.0)
     try:
         spec = env.hello(agent="resend/1")
         # What a resend whose first reply came late looks like on the wire (the client's
-        # own publisher: the host sees the same session send hello twice).
-        env._pub.put(encode(Hello(seq=0, agent="resend/1")))
+        # own publisher: the host sees the same session send hello again, with the same id).
+        env._pub.put(encode(Hello(seq=0, id=spec.id, agent="resend/1")))
         ts = env.reset()
         assert ts.stage == "explore" and ts.seq == spec.seq + 1
         ts = env.step(GO)

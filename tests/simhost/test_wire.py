@@ -146,23 +146,32 @@ def test_layout_is_aligned():
     assert magic == MAGIC and (FRAME.size + hlen) % 8 == 0
     header = json.loads(buf[FRAME.size : FRAME.size + hlen])
     end = 0
-    for meta in header["tensors"]:
-        assert meta["offset"] % 8 == 0 and meta["offset"] >= end  # aligned, no overlap
+    for meta in header["tensors"]:  # each exactly where the previous one's padding ends
+        assert meta["offset"] == end
         end = meta["offset"] + meta["nbytes"]
-    assert len(buf) - FRAME.size - hlen - end < 8  # at most the last tensor's padding
+        end += (-end) % 8
+    assert len(buf) == FRAME.size + hlen + end  # every tensor padded, the last one too
     _, tensors = decode_request(buf)
     assert all(t.flags.aligned and t.flags.c_contiguous for t in tensors.values())
 
 
 @pytest.mark.parametrize(
     "array",
-    [np.zeros(2, np.float16), np.zeros(2, np.complex64), np.zeros(2, ">f4"),
-     np.array(["a"]), np.array([{}], dtype=object)],
-    ids=["float16", "complex64", "big-endian", "str", "object"],
+    [np.zeros(2, np.float16), np.zeros(2, np.complex64), np.array(["a"]),
+     np.array([{}], dtype=object)],
+    ids=["float16", "complex64", "str", "object"],
 )
 def test_encoding_a_dtype_outside_v1_is_refused(array):
     with pytest.raises(WireError, match="'x'"):
         encode(Step(seq=0), {"x": array})
+
+
+def test_big_endian_arrays_travel_little_endian():
+    sent = np.arange(6, dtype=">f4").reshape(2, 3)
+    buf = encode(Step(seq=0), {"x": sent})
+    _, tensors = decode_request(buf)
+    assert tensors["x"].dtype.str == "<f4" and np.array_equal(tensors["x"], sent)
+    assert buf[-24:-20] == struct.pack("<f", 0.0) and buf[-20:-16] == struct.pack("<f", 1.0)
 
 
 def test_size_limit():
@@ -227,12 +236,9 @@ def test_random_bytes(which):
 def test_every_truncation(which):
     decode = DECODERS[which]
     buf = valid_buffers()[which]
-    whole = decode(buf)
-    for n in range(len(buf)):
-        got = decode_or_wire_error(decode, buf[:n])
-        if got is not None:  # only dropping the last tensor's padding may still decode
-            assert n >= len(buf) - 7
-            assert repr(got) == repr(whole)
+    decode(buf)
+    for n in range(len(buf)):  # the length is exact: no truncation decodes
+        assert decode_or_wire_error(decode, buf[:n]) is None, n
 
 
 @pytest.mark.parametrize("which", DECODERS)
@@ -330,3 +336,70 @@ def test_hostile_headers(which, case):
     got = decode_or_wire_error(DECODERS[which], HOSTILE_HEADERS[case])
     if case != "huge float":  # JSON reads it as inf; the action check refuses it later
         assert got is None
+
+
+# ------------------------------------------------------------------- exact framing
+def _layout(*metas: dict[str, Any], block: bytes) -> bytes:
+    header = {"kind": "step", "seq": 0, "action": {}, "tensors": list(metas)}
+    return frame(header, block)
+
+
+def _t(name: str, offset: int, n: int = 5) -> dict[str, Any]:
+    return {"name": name, "dtype": "uint8", "shape": [n], "offset": offset, "nbytes": n}
+
+
+# Each breaks exactly one framing rule of PROTOCOL.md; the error must name that problem.
+BAD_FRAMING: dict[str, tuple[bytes, str]] = {
+    "tensors overlap": (_layout(_t("a", 0, 16), _t("b", 8, 8), block=bytes(24)),
+                        "'b' at offset 8 overlaps"),
+    "misaligned tensor": (_layout(_t("a", 0), _t("b", 5), block=bytes(16)),
+                          "'b' at offset 5 is misaligned"),
+    "gap between tensors": (_layout(_t("a", 0), _t("b", 16), block=bytes(24)),
+                            "'b' at offset 16 leaves a gap"),
+    "first tensor not at 0": (_layout(_t("a", 8), block=bytes(16)), "'a' at offset 8"),
+    "tensors out of order": (_layout(_t("b", 8), _t("a", 0), block=bytes(16)),
+                             "'b' at offset 8"),
+    "trailing bytes": (_layout(_t("a", 0), block=bytes(16)), "8 trailing byte"),
+    "trailing bytes, no tensor": (frame({"kind": "reset", "seq": 0}, bytes(8)),
+                                  "8 trailing byte"),
+    "missing padding of the last tensor": (_layout(_t("a", 0), block=bytes(5)),
+                                           "ends 3 byte\\(s\\) early"),
+    "missing tensor bytes": (_layout(_t("a", 0, 16), block=bytes(8)),
+                             "ends 8 byte\\(s\\) early"),
+    "padding not zero": (_layout(_t("a", 0), block=bytes(5) + b"\x01\0\0"),
+                         "padding after it is not zero"),
+    "header length not padded": (FRAME.pack(MAGIC, 15) + b'{"kind":"reset","seq":0}'[:15]
+                                 + bytes(1), "must be a multiple of 8"),
+    "nbytes does not match the shape": (
+        _layout({**_t("a", 0), "nbytes": 8}, block=bytes(8)), "shape \\[5\\] of uint8 needs 5"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_FRAMING)
+@pytest.mark.parametrize("which", ["request", "observation"])
+def test_framing_must_be_exact(which, case):
+    buf, problem = BAD_FRAMING[case]
+    if which == "observation" and case != "header length not padded":
+        # The agent's decoder checks the host's replies alike.
+        hlen = FRAME.unpack_from(buf)[1]
+        header = {**REPLIES["observation"].model_dump(mode="json"),
+                  "tensors": json.loads(buf[8 : 8 + hlen]).get("tensors", [])}
+        buf = frame(header, buf[8 + hlen :])
+    decode = DECODERS[which]
+    with pytest.raises(WireError, match=problem) as e:
+        decode(buf)
+    assert e.value.code == "malformed"
+
+
+def test_request_id_is_read_from_a_refused_request():
+    from simhost._wire import request_id
+
+    good = encode({"kind": "step", "seq": 4, "id": 77, "action": {}})
+    assert request_id(good) == 77
+    broken = frame({"kind": "step", "seq": 4, "id": 78, "action": {}}, bytes(3))  # trailing
+    with pytest.raises(WireError):
+        decode_request(broken)
+    assert request_id(broken) == 78
+    for hostile in (b"", b"EGC1", frame(b"[1]"), frame({"id": -1}), frame({"id": 2**60}),
+                    frame({"id": "7"}), frame({"id": 1.5}), frame(b"{"), b"XXXX" + good[4:]):
+        assert request_id(hostile) is None

@@ -1,0 +1,479 @@
+"""The campaign driver: submit, stream results, commit, retry, cancel, fail cleanly.
+
+``run_campaign`` (re-exported by ``orchestrator._campaign``) takes the campaign's driver
+lock and runs a ``Driver``. What it guarantees under faults (README, "Faults"):
+
+* every result is committed once, at once, before anything else is done with it;
+* Ctrl-C / SIGTERM: the running tasks are cancelled, the campaign's containers removed on
+  every node and output mounts released; exit 130;
+* the store fails (a full disk, an I/O error) or the Ray cluster is lost: the same cancel
+  path (for a lost cluster, on this node through the engine directly, the other nodes'
+  containers being bounded by their episode watchers), one message, exit 5 or 6; nothing
+  committed is lost and ``eagc campaign rebuild-store`` adds what finished meanwhile;
+* a store that is damaged, or holds fewer results than ``events.jsonl`` says were
+  committed (an empty file put in its place), is refused before anything runs;
+* an in-flight episode is charged a retry only when its own node failed.
+
+The progress board (which episodes run where) is an actor pinned to the driver's own node,
+so that the loss of a worker node never takes live progress with it.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+from typing import Any
+
+from orchestrator._campaign import (
+    EXIT_CLUSTER,
+    EXIT_STORE,
+    CampaignOptions,
+    CampaignReport,
+    ClusterLost,
+    ClusterWatch,
+    DriverFailure,
+    Events,
+    campaign_dir,
+    driver_lock,
+    plan,
+    ray_connection,
+    sigterm_as_interrupt,
+    store_path,
+)
+from orchestrator._store import REBUILD, StoreDamaged, StoreError
+from schemas import CampaignSpec, EpisodeResult
+
+log = logging.getLogger("eagc.campaign")
+
+
+def private_folder(path: Path) -> Path:
+    """Creates ``path`` (and parents) and makes it 0700: it holds hidden scenarios."""
+    path.mkdir(parents=True, exist_ok=True)
+    try:
+        path.chmod(0o700)
+    except PermissionError:  # someone else's folder: say so, never fail a campaign for it
+        log.warning("cannot make %s private (0700): it is not ours", path)
+    return path
+
+
+def run_campaign(spec: CampaignSpec, options: CampaignOptions | None = None, *,
+                 console: Any = None) -> CampaignReport:
+    """Runs what the store lacks of ``spec``; returns what this run did."""
+    options = options or CampaignOptions()
+    private_folder(spec.output.resolve())
+    with driver_lock(campaign_dir(spec)), sigterm_as_interrupt():
+        driver = Driver(spec, options, console=console)
+        try:
+            return driver.run()
+        finally:
+            driver.close()
+
+
+def check_store_against_events(store: Any, folder: Path, campaign: str) -> None:
+    """StoreDamaged if ``events.jsonl`` names committed episodes the store lacks."""
+    from orchestrator._rebuild import committed_episodes, read_events
+
+    named = committed_episodes(read_events(folder / "events.jsonl"))
+    if not named:
+        return
+    missing = named - store.episode_ids(campaign)
+    if missing:
+        raise StoreDamaged(
+            f"the results store {store.path} lacks {len(missing)} of the {len(named)} "
+            f"results that {folder / 'events.jsonl'} says were committed (an empty, replaced "
+            f"or damaged store). Running on would run them again: rebuild it first with "
+            f"{REBUILD}")
+
+
+class Driver:
+    """One run of one campaign: submit, stream results, commit, retry, cancel."""
+
+    def __init__(self, spec: CampaignSpec, options: CampaignOptions, *, console: Any) -> None:
+        from rich.console import Console
+
+        from orchestrator._metrics import CampaignMetrics
+        from orchestrator._store import ResultsStore
+
+        self.spec, self.options = spec, options
+        self.name = spec.name
+        self.console = console or Console(stderr=True)
+        self.folder = private_folder(campaign_dir(spec))
+        self.metrics = CampaignMetrics(spec.name, track=spec.track, phase=spec.phase)
+        self.metrics.start_series(spec)
+        self.store = ResultsStore(store_path(spec))
+        self.events = Events(self.folder / "events.jsonl")
+        self.report = CampaignReport(spec.name, planned=0)
+        self.pending: dict[Any, Any] = {}  # ObjectRef → EpisodeJob
+        self.running: dict[str, dict[str, Any]] = {}  # episode id → "started" report
+        self.finished: set[str] = set()
+        self.failed = 0
+        self.cancelling = False
+        self.broken: BaseException | None = None  # the store or cluster fault that stops us
+        self.seeds: dict[tuple[str, int], int] = {}
+        self.pinned: dict[str, Any] = {}
+        self.archives: dict[str, list[Any]] = {}
+        self.board: Any = None
+        self.watch: ClusterWatch | None = None
+        self._nodes_checked = 0.0
+
+    def close(self) -> None:
+        if self.watch is not None:
+            self.watch.close()
+        if self.report.metrics_port is not None and self.options.metrics_linger_s > 0:
+            time.sleep(self.options.metrics_linger_s)
+        self.metrics.close()
+        self.store.close()
+        self.events.close()
+
+    # ------------------------------------------------------------------ run
+    def run(self) -> CampaignReport:
+        from orchestrator._fanout import pin_images
+        from orchestrator._seeds import commitment, load_secret, seed_list
+
+        started = time.time()
+        secret = load_secret(self.spec)
+        if secret.public:
+            self.console.print("[yellow]seeds derive from the campaign name: they are PUBLIC "
+                               "(fine for a local test, never for an official run)[/]")
+        seeds = seed_list(self.spec, secret)
+        self.seeds = {(s.split, s.index): s.seed for s in seeds}
+        keys = plan(self.spec)
+        self.report.planned = len(keys)
+        self.store.check()
+        check_store_against_events(self.store, self.folder, self.name)
+        self.store.register(self.spec, commitment(self.spec, seeds), len(keys))
+        done = self.store.done(self.name)
+        held = {q.key for q in self.store.quarantined(self.name)}
+        todo = [k for k in keys if k not in done
+                and (self.options.retry_quarantined or k not in held)]
+        self.report.skipped = len(keys) - len(todo)
+        if self.options.metrics_port is not None:
+            self.report.metrics_port = self.metrics.serve(self.options.metrics_port,
+                                                          self.options.metrics_addr)
+        self._update_states()
+        if todo:
+            self.pinned = pin_images(self.spec)
+            with ray_connection(self.spec, self.options):
+                self._run(todo)
+        self.report.wall_s = time.time() - started
+        self.events.write("finished", committed=self.report.committed,
+                          cancelled=self.report.cancelled, wall_s=self.report.wall_s)
+        return self.report
+
+    def _run(self, todo: list[Any]) -> None:
+        import ray
+        from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
+        from orchestrator._fanout import ProgressBoard, cleanup_nodes
+
+        self.watch = ClusterWatch(ray.get_runtime_context().gcs_address,
+                                  self.options.cluster_patience_s)
+        here = ray.get_runtime_context().get_node_id()
+        self.board = ProgressBoard.options(
+            scheduling_strategy=NodeAffinitySchedulingStrategy(node_id=here, soft=False)
+        ).remote()
+        # Containers a killed earlier driver of this campaign left behind.
+        self._reaped(len(cleanup_nodes({"campaign": self.name}, str(self.folder))))
+        for sub in self.spec.submissions:
+            if sub.archive is not None and len(ray.nodes()) > 1:
+                self.archives[sub.team] = [ray.put(sub.archive.read_bytes())]
+        for key in todo:
+            self._submit(key, self.store.attempts(self.name, key))
+        self.events.write("submitted", episodes=len(todo), board_node=here)
+        progress, bar = self._progress(len(todo))
+        try:
+            with progress:
+                while self.pending:
+                    self._step()
+                    progress.update(bar, completed=self.report.committed + self.report.quarantined,
+                                    running=len(self.running), failed=self.failed,
+                                    retries=self.report.retries)
+        except KeyboardInterrupt:
+            self._cancel()
+        except (StoreError, ClusterLost) as e:
+            self._fail(e)
+
+    def _progress(self, total: int) -> tuple[Any, Any]:
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        progress = Progress(
+            TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+            TextColumn("{task.fields[running]} running · {task.fields[failed]} failed · "
+                       "{task.fields[retries]} retried"),
+            TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+            console=self.console, disable=not self.options.progress,
+        )
+        bar = progress.add_task(self.name, total=total, running=0, failed=0, retries=0)
+        return progress, bar
+
+    def _submit(self, key: Any, retry: int) -> None:
+        from orchestrator._fanout import EpisodeJob, code_version, submit
+        from orchestrator._worker import new_episode_id
+
+        pin = self.pinned[key.submission]
+        split = next(s for s in self.spec.splits if s.name == key.split)
+        job = EpisodeJob(
+            campaign=self.name, submission=key.submission, split=key.split, index=key.index,
+            retry=retry, episode=new_episode_id(), track=self.spec.track, image=pin.run,
+            digest=pin.digest, seed=self.seeds[(key.split, key.index)], params=split.params,
+            limits=self.spec.limits, runs_dir=str(self.folder), runtime=self.spec.runtime,
+            archive=self.archives.get(key.submission, []), code=code_version(),
+        )
+        self.pending[submit(job, self.board)] = job
+
+    def _check_cluster(self) -> None:
+        if self.watch is not None and self.watch.lost.is_set():
+            raise ClusterLost(
+                f"the Ray cluster stopped answering (its GCS at "
+                f"{self.watch.target[0]}:{self.watch.target[1]} refused connections for "
+                f"{self.watch.patience_s:g} s)")
+
+    def _step(self) -> None:
+        import ray
+
+        self._check_cluster()
+        refs = list(self.pending)
+        ready, rest = ray.wait(refs, num_returns=1, timeout=0.5)
+        if ready and rest:
+            more, _ = ray.wait(rest, num_returns=len(rest), timeout=0)
+            ready += more
+        self._drain()
+        for ref in ready:
+            self._finish(ref)
+        self._check_nodes()
+
+    def _check_nodes(self, every_s: float = 5.0) -> None:
+        """Episodes whose node Ray declared dead are retried now: the task's own failure may
+        reach the driver only minutes later (a node cut off the network answers nothing, and
+        Ray waits for its gRPC keepalive)."""
+        import ray
+
+        if time.monotonic() - self._nodes_checked < every_s:
+            return
+        self._nodes_checked = time.monotonic()
+        try:
+            dead = {n["NodeID"] for n in ray.nodes() if not n.get("Alive")}
+        except Exception as e:  # noqa: BLE001 - the GCS is busy or gone: ClusterWatch says
+            log.warning("could not list Ray's nodes: %s", e)
+            return
+        if not dead:
+            return
+        from orchestrator._store import EpisodeKey
+
+        for ref, job in list(self.pending.items()):
+            node = self.running.get(job.episode, {}).get("node")
+            if node not in dead:
+                continue
+            self.pending.pop(ref)
+            self.running.pop(job.episode, None)
+            self.finished.add(job.episode)
+            self.metrics.set_running(len(self.running))
+            ray.cancel(ref, force=True)
+            key = EpisodeKey(job.submission, job.split, job.index)
+            where = {"submission": job.submission, "split": job.split, "index": job.index,
+                     "retry": job.retry, "episode": job.episode}
+            message = f"NodeDiedError: the node running the episode ({node[:12]}) was lost"
+            try:
+                # No cleanup through Ray: the node cannot be reached. Its containers lose
+                # their heartbeat with its workers and are reaped (orchestrator._reaper).
+                self._record(job, key, where, None, node, True, message, reach=False)
+            except StoreError:
+                self.metrics.store_error()
+                raise
+
+    def _drain(self) -> None:
+        import ray
+
+        from orchestrator._fanout import ProgressBoard
+
+        try:
+            events = ray.get(self.board.drain.remote(), timeout=10)
+        except ray.exceptions.RayError as e:  # the driver's own node is in trouble
+            self._check_cluster()
+            log.warning("the progress board is gone (%s); starting a new one", e)
+            self.board = ProgressBoard.remote()
+            return
+        for ev in events:
+            if ev["episode"] in self.finished:
+                continue
+            self.running[ev["episode"]] = ev
+            self.events.write("started", **{k: v for k, v in ev.items() if k != "at"})
+        self.metrics.set_running(len(self.running))
+
+    def _reaped(self, n: int) -> None:
+        if n:
+            self.report.reaped += n
+            self.metrics.containers_reaped(n)
+
+    # ------------------------------------------------------------------ results
+    def _finish(self, ref: Any) -> None:
+        import ray
+
+        from orchestrator._store import EpisodeKey
+
+        job = self.pending.pop(ref)
+        self.running.pop(job.episode, None)
+        self.finished.add(job.episode)
+        self.metrics.set_running(len(self.running))
+        if self.broken is not None:  # the result stays in its folder: rebuild-store finds it
+            return
+        key = EpisodeKey(job.submission, job.split, job.index)
+        where = {"submission": job.submission, "split": job.split, "index": job.index,
+                 "retry": job.retry, "episode": job.episode}
+        result: EpisodeResult | None = None
+        node: str | None = None
+        crashed = False
+        try:
+            report = ray.get(ref)
+            node = report.node
+            self._reaped(report.reaped)
+            if report.result_json is not None:
+                result = EpisodeResult.model_validate_json(report.result_json)
+                message = result.failure.message if result.failure else ""
+            else:
+                message = report.error or "the task returned no result"
+        except ray.exceptions.RayError as e:
+            if self.cancelling:
+                return
+            # Charged only if the fault was on the episode's own node: with the whole
+            # cluster gone, nobody's episode is to blame.
+            if self.watch is not None and not self.watch.alive(timeout=2.0):
+                self.watch.lost.set()
+                self._check_cluster()
+            crashed = True
+            message = f"{type(e).__name__}: " + (str(e).strip().splitlines() or [""])[0][:300]
+        try:
+            self._record(job, key, where, result, node, crashed, message)
+        except StoreError:
+            self.metrics.store_error()
+            raise
+
+    def _record(self, job: Any, key: Any, where: dict[str, Any], result: EpisodeResult | None,
+                node: str | None, crashed: bool, message: str, *, reach: bool = True) -> None:
+        from orchestrator._fanout import cleanup_nodes
+
+        if result is not None and result.status.failure_kind != "infra":
+            t = time.perf_counter()
+            new = self.store.commit(self.name, key, result, retry=job.retry, node=node)
+            self.report.commit_s.append(time.perf_counter() - t)
+            if new:
+                self.report.committed += 1
+                self.report.nodes.add(node or "?")
+                self.failed += result.failure is not None
+                self.metrics.episode_finished(job.submission, result)
+            else:
+                self.report.duplicates += 1
+            self.events.write("committed" if new else "duplicate", **where, node=node,
+                              status=result.status.value, score=result.score.total)
+            self._update_states()
+            return
+        # An infrastructure failure: record it, then retry or quarantine.
+        self.store.record_attempt(self.name, key, retry=job.retry, episode=job.episode,
+                                  message=message, node=node, result=result)
+        if crashed and reach:  # the dead worker's container and output mount
+            self._reaped(len(cleanup_nodes({"campaign": self.name, "episode": job.episode},
+                                           str(self.folder / job.episode))))
+        if self.cancelling:
+            return
+        if job.retry < self.spec.retries:
+            self.report.retries += 1
+            self.metrics.episode_retried(job.submission)
+            self.events.write("retry", **where, node=node, message=message)
+            self._submit(key, job.retry + 1)
+        else:
+            self.report.quarantined += 1
+            self.store.quarantine(self.name, key, episode=job.episode, message=message,
+                                  retries=job.retry)
+            self.metrics.episode_quarantined(job.submission)
+            self.events.write("quarantined", **where, node=node, message=message)
+            self.console.print(f"[red]quarantined {key}[/]: {message}")
+        self._update_states()
+
+    def _update_states(self) -> None:
+        c = self.store.counts(self.name)
+        held, _ = c.pop("quarantined"), c.pop("retries")
+        done = sum(c.values())
+        planned = self.report.planned
+        self.metrics.set_states({
+            "planned": planned, "done": done, "failed": done - c.get("completed", 0),
+            "quarantined": held, "remaining": max(0, planned - done - held),
+        })
+
+    # ------------------------------------------------------------------ endings
+    def _cancel(self) -> None:
+        import ray
+
+        from orchestrator._fanout import cleanup_nodes
+
+        self.cancelling = True
+        self.report.cancelled = True
+        if self.broken is None:
+            self.console.print(f"[yellow]cancelling {len(self.pending)} episode(s); committed "
+                               "results are kept, run the campaign again to resume[/]")
+        self.events.try_write("cancelled", pending=len(self.pending))
+        # Ray's cancel races with a task's own reply (its core worker then aborts the whole
+        # process: "Tried to complete task that was not pending"): cancel only tasks not
+        # known to be done, once each, and never force-kill one that may be finishing. A
+        # task still running after the grace is ended by the container cleanup below (its
+        # agent is gone) and by Ray when this driver leaves.
+        deadline = time.time() + self.options.cancel_grace_s
+        try:
+            self._collect(timeout=0)
+            for ref in self.pending:
+                ray.cancel(ref)  # KeyboardInterrupt in the task: run_episode stops its container
+            while self.pending and time.time() < deadline:
+                self._collect(timeout=0.5)
+        except KeyboardInterrupt:
+            pass
+        self.pending.clear()
+        self._reaped(len(cleanup_nodes({"campaign": self.name}, str(self.folder))))
+
+    def _collect(self, timeout: float) -> None:
+        """Finish (commit) whichever pending tasks are done within ``timeout`` seconds."""
+        import ray
+
+        if not self.pending:
+            return
+        ready, _ = ray.wait(list(self.pending), num_returns=len(self.pending),
+                            timeout=timeout)
+        for ref in ready:
+            try:
+                self._finish(ref)
+            except StoreError as e:  # the store broke while we were cancelling
+                self.broken = self.broken or e
+
+    def _fail(self, fault: StoreError | ClusterLost) -> None:
+        """The store or the cluster failed: the cancel path, then DriverFailure."""
+        from orchestrator._fanout import cleanup_here
+
+        self.broken = fault
+        lost = isinstance(fault, ClusterLost)
+        code = EXIT_CLUSTER if lost else EXIT_STORE
+        self.events.try_write("failed", reason="cluster" if lost else "store",
+                              message=str(fault), pending=len(self.pending))
+        if lost:
+            # No Ray to ask: this node's containers through the engine; other nodes' are
+            # bounded by their episode watchers (no heartbeat: removed within a minute).
+            self.report.cancelled = True
+            try:
+                self._reaped(len(cleanup_here({"campaign": self.name}, str(self.folder))))
+            except Exception as e:  # noqa: BLE001 - no engine here: the watchers remain
+                log.warning("local cleanup after losing the cluster: %s", e)
+            self.pending.clear()
+        else:
+            self._cancel()
+        kept = self.report.committed + self.report.skipped
+        raise DriverFailure(
+            f"{fault}. The campaign stopped: running episodes were cancelled and their "
+            f"containers removed; the {kept} result(s) committed are kept. "
+            + ("Start the Ray cluster again, then run the campaign again: it resumes."
+               if lost else f"Then run the campaign again (it resumes); `{REBUILD}` adds "
+               "results that finished after the failure."), code) from None

@@ -1,0 +1,391 @@
+"""The generated parts of ``schemas/PROTOCOL.md``, so that the page never goes stale.
+
+    python -m plugins.protocol_doc          # rewrite the generated sections
+    python -m plugins.protocol_doc --check  # exit 1 when any of them is stale
+
+The page's hand-written text explains; the tables come from the code: the message fields
+from the ``schemas`` models, the error codes and end reasons from their definitions, a
+byte-exact example from the encoder, and, per installed track, the stages
+(``TrackPlugin.stages()``), the observation and action specs (``TrackEpisode``'s
+``FieldSpec``s, sampled over several scenarios of every split, since a track's spec may
+depend on its scenario) and the files it collects. Each generated section sits between
+``<!-- generated:NAME … -->`` and ``<!-- end generated:NAME -->``; a track without a section
+yet gets one before ``<!-- end tracks -->``. A test fails when the page and the code differ.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+import types
+from collections.abc import Callable, Iterable
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Any, Literal, Union, get_args, get_origin
+
+import numpy as np
+from pydantic import BaseModel
+
+import schemas
+from plugins._base import TrackPlugin
+from plugins._registry import available_tracks, load_track
+from schemas import _protocol as proto
+from simhost._episode import StageSpec
+
+DOC = Path(schemas.__file__).with_name("PROTOCOL.md")
+#: Scenarios sampled per split (seeds and indexes 0..SAMPLES-1).
+SAMPLES = 5
+_TRACKS_END = "<!-- end tracks -->"
+_SECTION = re.compile(
+    r"(<!-- generated:(?P<name>[\w:.-]+) [^>]*-->\n)(?P<body>.*?)"
+    r"(<!-- end generated:(?P=name) -->)",
+    re.S,
+)
+_TRACK_ORDER = ("sanity", "track1", "track2")
+
+
+def _marker(name: str) -> str:
+    return f"<!-- generated:{name} (python -m plugins.protocol_doc; do not edit) -->"
+
+
+# ------------------------------------------------------------------------- type names
+_SIMPLE = {int: "integer", float: "number", str: "string", bool: "boolean", Any: "any",
+           type(None): "null"}
+
+
+def type_name(t: Any) -> str:
+    """A JSON-ish name of a field's type: ``integer | null``, ``list of TensorMeta``."""
+    origin, args = get_origin(t), get_args(t)
+    if origin is Annotated:
+        return type_name(args[0])
+    if origin is Literal:
+        return " \\| ".join(json.dumps(a) for a in args)
+    if origin in (Union, types.UnionType):
+        return " \\| ".join(type_name(a) for a in args)
+    if origin is tuple:
+        if len(args) == 2 and args[1] is Ellipsis:
+            return f"list of {type_name(args[0])}"
+        return "[" + ", ".join(type_name(a) for a in args) + "]"
+    if origin is list:
+        return f"list of {type_name(args[0])}"
+    if origin is dict:
+        return "object"
+    if isinstance(t, type) and issubclass(t, Enum):
+        return "string (an end reason)"
+    if isinstance(t, type) and issubclass(t, BaseModel):
+        return t.__name__
+    return _SIMPLE.get(t, getattr(t, "__name__", str(t)))
+
+
+def _cell(text: Any) -> str:
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def _first_line(doc: str | None) -> str:
+    return " ".join((doc or "").strip().split("\n\n")[0].split())
+
+
+def model_table(model: type[BaseModel]) -> str:
+    """One table row per field of a message model: name, type, default, meaning."""
+    rows = ["| field | type | default | meaning |", "|---|---|---|---|"]
+    for name, f in model.model_fields.items():
+        if name == "kind":
+            default = "required"
+        elif f.is_required():
+            default = "required"
+        elif f.default_factory is not None:
+            default = "`" + json.dumps(f.default_factory(), default=list) + "`"  # type: ignore[call-arg]
+        else:
+            default = f"`{json.dumps(f.default)}`"
+        kind = type_name(f.annotation)
+        if name == "kind":
+            kind = f"`{json.dumps(f.default)}`"
+        rows.append(f"| `{name}` | {kind} | {default} | {_cell(f.description or '')} |")
+    return "\n".join(rows)
+
+
+# ------------------------------------------------------------------- protocol sections
+REQUESTS = (proto.Hello, proto.Reset, proto.Step, proto.Answer, proto.EndStage)
+REPLIES = (proto.HelloReply, proto.ObservationReply, proto.ErrorReply)
+PARTS = (proto.TensorMeta, proto.FieldSpec, proto.StageInfo, proto.HostMessage,
+         proto.ActionResult)
+
+
+def messages_section() -> str:
+    out = []
+    for title, models in (("Requests (agent → host)", REQUESTS),
+                          ("Replies (host → agent)", REPLIES),
+                          ("Parts of messages", PARTS)):
+        out.append(f"#### {title}\n")
+        for m in models:
+            kind = m.model_fields.get("kind")
+            head = f"`{kind.default}`" if kind is not None else f"`{m.__name__}`"
+            label = f" ({m.__name__})" if kind is not None else ""
+            out.append(f"**{head}**{label} — {_first_line(m.__doc__)}\n")
+            out.append(model_table(m) + "\n")
+    return "\n".join(out)
+
+
+def errors_section() -> str:
+    rows = ["| code | meaning |", "|---|---|"]
+    rows += [f"| `{code}` | {_cell(text)} |" for code, text in proto.ERROR_CODES.items()]
+    return "\n".join(rows) + "\n"
+
+
+def end_reasons_section() -> str:
+    rows = ["| end_reason | meaning |", "|---|---|"]
+    rows += [f"| `{r.value}` | {_cell(r.description)} |" for r in proto.EndReason]
+    return "\n".join(rows) + "\n"
+
+
+def _hex(data: bytes) -> str:
+    return " ".join(f"{b:02x}" for b in data)
+
+
+def example_section() -> str:
+    """A step request with one tensor, byte by byte, as the encoder writes it."""
+    from simhost._wire import encode
+
+    velocity = np.array([0.5, -0.25], dtype=np.float32)
+    mask = np.array([1, 0, 1], dtype=np.uint8)
+    buf = encode(proto.Step(seq=3, id=7, action={"mode": "walk"}),
+                 {"velocity": velocity, "mask": mask})
+    hlen = int.from_bytes(buf[4:8], "little")
+    header = buf[8 : 8 + hlen]
+    json_part = header.rstrip(b" ")
+    block = buf[8 + hlen :]
+    lines = [
+        "```text",
+        f"offset  bytes{'':38}meaning",
+        f"0       {_hex(buf[:4]):<43}magic \"EGC1\"",
+        f"4       {_hex(buf[4:8]):<43}header length H = {hlen} (u32 little-endian)",
+        f"8       the {len(json_part)} bytes of this JSON text, then "
+        f"{hlen - len(json_part)} spaces (8 + H = {8 + hlen}, a multiple of 8):",
+        f"        {json_part.decode()}",
+        f"{8 + hlen:<8}{_hex(block[0:8]):<43}tensor \"velocity\": float32 [0.5, -0.25] "
+        "(block offset 0)",
+        f"{8 + hlen + 8:<8}{_hex(block[8:16]):<43}tensor \"mask\": uint8 [1, 0, 1] "
+        "(block offset 8), 5 zero bytes of padding",
+        f"{len(buf):<8}(end: the buffer is exactly {len(buf)} bytes)",
+        "```",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------- track sections
+def _num(x: float | None) -> str:
+    if x is None:
+        return ""
+    return f"{x:g}"
+
+
+def _range(f: proto.FieldSpec) -> str:
+    if f.choices is not None:
+        names = ", ".join(f.choices)
+        return f"index or name of: {names}" if f.dtype != "str" else f"one of: {names}"
+    if f.low is None and f.high is None:
+        return ""
+    return f"{_num(f.low) or '−∞'} … {_num(f.high) or '∞'}"
+
+
+def _shape(shape: tuple[int, ...]) -> str:
+    return "scalar" if not shape else "[" + ", ".join(str(d) for d in shape) + "]"
+
+
+def _travels(f: proto.FieldSpec) -> str:
+    return "tensor" if f.tensor else "JSON"
+
+
+def _merged(values: Iterable[str]) -> str:
+    distinct = list(dict.fromkeys(values))
+    return " / ".join(v for v in distinct if v) if len(distinct) > 1 else distinct[0]
+
+
+def spec_table(samples: list[tuple[proto.FieldSpec, ...]], *, observation: bool) -> str:
+    """One row per field name over every sampled spec; values that differ between
+    scenarios are joined by `` / ``."""
+    order: dict[str, list[proto.FieldSpec]] = {}
+    for spec in samples:
+        for f in spec:
+            order.setdefault(f.name, []).append(f)
+    head = "| name | dtype | shape | range | sent as | meaning |" if observation else (
+        "| name | dtype | shape | range | meaning |")
+    rows = [head, "|---|---|---|---|---|---|" if observation else "|---|---|---|---|---|"]
+    for name, fields in order.items():
+        cols = [
+            f"`{name}`",
+            _merged(f.dtype for f in fields),
+            _merged(_shape(tuple(f.shape)) for f in fields),
+            _cell(_merged(_range(f) for f in fields)),
+        ]
+        if observation:
+            cols.append(_merged(_travels(f) for f in fields))
+        text = _cell(_merged(f.description for f in fields))
+        if len(fields) < len(samples):
+            text = (text + " " if text else "") + "(only in some scenarios)"
+        cols.append(text)
+        rows.append("| " + " | ".join(cols) + " |")
+    return "\n".join(rows)
+
+
+def _budget(seconds: float) -> str:
+    if seconds % 60 == 0:
+        return f"{seconds / 60:g} min"
+    return f"{seconds:g} s"
+
+
+def stages_table(stages: list[StageSpec]) -> str:
+    rows = ["| # | stage | official budget | step cap | the robot may move | what happens |",
+            "|---|---|---|---|---|---|"]
+    for i, s in enumerate(stages):
+        cap = "" if s.max_steps is None else str(s.max_steps)
+        rows.append(f"| {i} | `{s.name}` | {_budget(s.budget_s)} | {cap or '—'} | "
+                    f"{'yes' if s.allows_motion else 'no'} | {_cell(s.description)} |")
+    return "\n".join(rows)
+
+
+def sample_specs(
+    plugin: TrackPlugin, split: str
+) -> tuple[list[tuple[proto.FieldSpec, ...]], list[tuple[proto.FieldSpec, ...]]]:
+    """The observation and action specs of ``SAMPLES`` scenarios of ``split``."""
+    observations, actions = [], []
+    for i in range(SAMPLES):
+        scenario = plugin.make_scenario(seed=i, split=split, params={}, index=i)
+        episode = plugin.make_episode(scenario)
+        try:
+            observations.append(tuple(episode.observation_spec))
+            actions.append(tuple(episode.action_spec))
+        finally:
+            episode.close()
+    return observations, actions
+
+
+def _by_split(tables: dict[str, str], what: str) -> list[str]:
+    """One table per group of splits whose tables are the same."""
+    groups: dict[str, list[str]] = {}
+    for split, table in tables.items():
+        groups.setdefault(table, []).append(split)
+    out = []
+    for table, splits in groups.items():
+        names = ", ".join(f"`{s}`" for s in splits)
+        out += [f"{what} on split{'s' if len(splits) > 1 else ''} {names} (sampled over "
+                f"{SAMPLES} scenarios of each):", "", table, ""]
+    return out
+
+
+def _split_names(plugin: TrackPlugin) -> tuple[str, ...]:
+    names = getattr(plugin, "split_names", None)
+    return tuple(names()) if callable(names) else tuple(plugin.splits)
+
+
+def track_section(name: str) -> str:
+    plugin = load_track(name)
+    observations: dict[str, str] = {}
+    actions: dict[str, str] = {}
+    for split in _split_names(plugin):
+        obs, act = sample_specs(plugin, split)
+        observations[split] = spec_table(obs, observation=True)
+        actions[split] = spec_table(act, observation=False)
+    extra = [s for s in _split_names(plugin) if s not in plugin.splits]
+    files = ["| file | schema | required |", "|---|---|---|"]
+    for fname, rule in plugin.files.items():
+        if rule.jsonl:
+            schema = "one [`LogRecord`](json/episode_log_record.json) per line"
+        elif rule.model is not None:
+            stem = re.sub(r"(?<!^)(?=[A-Z])", "_", rule.model.__name__).lower()
+            schema = f"[`{rule.model.__name__}`](json/{stem}.json)"
+        else:
+            schema = ""
+        files.append(f"| `{fname}` | {schema} | {'yes' if rule.required else 'no'} |")
+    return "\n".join([
+        f"Stages, in order (`{type(plugin).__name__}.stages()`; a campaign may scale the "
+        "budgets, and an episode may announce smaller step caps at `hello`):",
+        "",
+        stages_table(plugin.stages()),
+        "",
+        *([f"Public extra split{'s' if len(extra) > 1 else ''}, outside the final score: "
+           + ", ".join(f"`{s}`" for s in extra) + ".", ""] if extra else []),
+        *_by_split(observations, "Observation"),
+        "Action (fields may be left out; the track decides what a missing one means):",
+        "",
+        *([next(iter(actions.values())), ""] if len(set(actions.values())) == 1
+          else _by_split(actions, "Action")),
+        "Files collected from `/output` (checked against their schema):",
+        "",
+        "\n".join(files),
+        "",
+    ])
+
+
+# ---------------------------------------------------------------------------- the page
+def sections(tracks: Iterable[str] | None = None) -> dict[str, Callable[[], str]]:
+    """Generated section name → a function that renders it."""
+    out: dict[str, Callable[[], str]] = {
+        "example": example_section,
+        "messages": messages_section,
+        "errors": errors_section,
+        "end-reasons": end_reasons_section,
+    }
+    names = list(tracks if tracks is not None else available_tracks())
+    names.sort(key=lambda n: (_TRACK_ORDER.index(n) if n in _TRACK_ORDER else 99, n))
+    for t in names:
+        out[f"track:{t}"] = lambda t=t: track_section(t)
+    return out
+
+
+def render(text: str, tracks: Iterable[str] | None = None) -> str:
+    """``text`` with every generated section rewritten (and missing tracks added)."""
+    todo = sections(tracks)
+    present = {m.group("name") for m in _SECTION.finditer(text)}
+    missing = [n for n in todo if n.startswith("track:") and n not in present]
+    if missing:
+        if _TRACKS_END not in text:
+            raise ValueError(f"{DOC.name} has no {_TRACKS_END!r} marker to add tracks before")
+        add = "".join(
+            f"### Track `{n.split(':', 1)[1]}`\n\n{_marker(n)}\n<!-- end generated:{n} -->\n\n"
+            for n in missing
+        )
+        text = text.replace(_TRACKS_END, add + _TRACKS_END)
+
+    def fill(m: re.Match[str]) -> str:
+        name = m.group("name")
+        if name not in todo:
+            return m.group(0)  # e.g. a track that is not installed here: left as it is
+        return f"{_marker(name)}\n{todo[name]().rstrip()}\n{m.group(4)}"
+
+    return _SECTION.sub(fill, text)
+
+
+def stale(path: Path = DOC) -> list[str]:
+    """Names of the generated sections that differ from the code (empty: up to date)."""
+    text = path.read_text()
+    fresh = render(text)
+    if fresh == text:
+        return []
+    old = {m.group("name"): m.group(0) for m in _SECTION.finditer(text)}
+    new = {m.group("name"): m.group(0) for m in _SECTION.finditer(fresh)}
+    return sorted(n for n in new if old.get(n) != new[n])
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true", help="exit 1 if the page is stale")
+    args = ap.parse_args(argv)
+    if args.check:
+        names = stale()
+        if names:
+            print(f"{DOC} is stale in: {', '.join(names)}; run python -m plugins.protocol_doc",
+                  file=sys.stderr)
+            return 1
+        print(f"{DOC} is up to date")
+        return 0
+    text = DOC.read_text()
+    DOC.write_text(render(text))
+    print(f"wrote {DOC}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -267,6 +267,33 @@ def _token_auth() -> None:
         log.debug("Ray config not re-read: %s", e)
 
 
+def _reachable(address: str, patience_s: float = 10.0) -> None:
+    """A ``host:port`` address must answer within ``patience_s``: Ray itself would retry an
+    unreachable GCS for minutes, printing a warning every few seconds. ``auto`` and
+    ``ray://`` addresses are left to Ray."""
+    import socket
+
+    if address == "auto" or "://" in address or ":" not in address:
+        return
+    host, _, port = address.rpartition(":")
+    if not port.isdigit():
+        raise CampaignError(f"--address {address!r}: expected HOST:PORT of a Ray head "
+                            "(its GCS port, 6379 by default)")
+    deadline = time.monotonic() + patience_s
+    while True:
+        try:
+            with socket.create_connection((host or "127.0.0.1", int(port)), timeout=2.0):
+                return
+        except OSError as e:
+            if time.monotonic() > deadline:
+                raise DriverFailure(
+                    f"no Ray cluster answers at {address} ({e.strerror or e}): start its "
+                    f"head (`ray start --head --port {port} --resources "
+                    "'{\"eagc_slot\": N}'`) or correct --address; nothing was run",
+                    EXIT_CLUSTER) from None
+            time.sleep(0.5)
+
+
 @contextmanager
 def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[None]:
     """An existing cluster (``address``), the Ray already initialized, or an embedded one.
@@ -291,6 +318,7 @@ def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[Non
         quiet: dict[str, Any] = {"log_to_driver": False, "logging_level": logging.WARNING,
                                  "namespace": "eagc"}
         if options.address:
+            _reachable(options.address)
             ray.init(address=options.address, **quiet)
         else:
             cpus = max(os.cpu_count() or 1, math.ceil(options.workers * spec.limits.cpus))

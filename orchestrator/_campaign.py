@@ -1,12 +1,13 @@
 """Campaigns: the spec from YAML, the episode plan, pinned images, and the driver (DESIGN §7).
 
-``run_campaign(spec)`` plans every (submission, split, index), asks the results store what
-is already there, and runs only the rest, one Ray task per episode, interleaving the
-submissions so that they progress evenly. Results stream back with ``ray.wait`` and each is
-committed at once. A result whose status is ``infra_error``, or a task whose worker died,
-is recorded as an attempt and run again with a new episode id, up to ``spec.retries``
-times; then the episode is quarantined (held back; the leaderboard marks that submission's
-final as pending; ``--retry-quarantined`` runs it again once an organizer decided so).
+``run_campaign(spec)`` (in ``_driver``) plans every (submission, split, index), asks the
+results store what is already there, and runs only the rest, one Ray task per episode,
+interleaving the submissions so that they progress evenly. Results stream back with
+``ray.wait`` and each is committed at once. A result whose status is ``infra_error``, or a
+task whose worker died, is recorded as an attempt and run again with a new episode id, up
+to ``spec.retries`` times; then the episode is quarantined (held back; the leaderboard
+marks that submission's final as pending; ``--retry-quarantined`` runs it again once an
+organizer decided so).
 Agent failures are final. Ctrl-C (or SIGTERM) cancels the running tasks, removes this
 campaign's containers on every node by label and keeps everything already committed.
 
@@ -71,6 +72,9 @@ class DriverFailure(CampaignError):
         super().__init__(message)
         self.exit_code = exit_code
 
+
+#: The Ray resource a node offers per container it may run at a time.
+SLOT = "eagc_slot"
 
 #: Exit codes of ``eagc campaign run`` for a campaign that had to stop (``ExitCode``).
 EXIT_STORE, EXIT_CLUSTER = 5, 6
@@ -309,7 +313,6 @@ def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[Non
     import ray
 
     from orchestrator import _raysentinel as raysentinel
-    from orchestrator._fanout import SLOT
 
     owned = not ray.is_initialized()
     temp: str | None = None
@@ -384,11 +387,3 @@ class ClusterWatch:
 
     def close(self) -> None:
         self._stop.set()
-
-
-def run_campaign(spec: CampaignSpec, options: CampaignOptions | None = None, *,
-                 console: Any = None) -> CampaignReport:
-    """Runs what the store lacks of ``spec``; returns what this run did (``_driver``)."""
-    from orchestrator._driver import run_campaign as run
-
-    return run(spec, options, console=console)

@@ -21,10 +21,12 @@ Targets (issue 12): Avg within ±10 of the paper (imitation 28.7, waypoint 32.5,
 36.6, task model 50.8) and in the same order; success well below 100 %; the task-model
 baseline highest on task-model %; attempts between 1.5 and 3; oracle >= 95 and nothing <= 5
 on every split. Check them on several disjoint seed ranges: the organizers' seeds are
-hidden. Time on the project's 2-core machine: well under 1 s per in-process episode and
-2-4 s per baseline episode; the default (8 per family, 2 splits, every agent: 480 episodes,
-2 jobs) took 17-19 minutes while other jobs kept the load average at 9-12; ``--per-family 3``
-takes about 6. Not collected by pytest (the file is ``bench_*.py``).
+hidden, and with 4 instances per family per split one range's Avg moves by 10-15 points
+from the next (the README pools three). Time on the project's 2-core machine: well under
+1 s per in-process episode and 2-4 s per baseline episode; the default (8 per family, 2
+splits, every agent: 480 episodes, 2 jobs) took 17-19 minutes while other jobs kept the load
+average at 9-12; ``--per-family 4 --inproc`` (240 episodes) takes 4-5 minutes at a load
+average of 8. Not collected by pytest (the file is ``bench_*.py``).
 """
 
 from __future__ import annotations

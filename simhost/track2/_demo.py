@@ -35,8 +35,9 @@ from ._params import InstanceParams
 
 POST_STEPS = 24
 """After the goal an official split's demonstration (annotations without magnitudes) goes on
-this many steps (1.2 s): the demonstrator draws the hand back (up to ``DRAW_BACK_Z``) and
-holds still, so the observations show the result (dev's packet ends on the goal)."""
+this many steps (1.2 s): the demonstrator draws the hand back towards ``DRAW_BACK_Z`` (a
+rise of 10-20 cm takes most of it; it holds still if it gets there), so the observations
+show the released parts at rest past the hand (dev's packet ends on the goal)."""
 DRAW_BACK_Z = 0.26
 BOUNDARY_RESOLUTION = 10
 """Key-stage boundaries are rounded to multiples of this many observations (0.5 s)."""
@@ -186,7 +187,7 @@ def write_demo_packet(
                 success, final = bool(info["success"]), info["value"]
                 if not success or env.config.demo_values == "exact":
                     done = True  # dev: today's packet, ending on the goal
-                else:  # the demonstrator draws the hand back and holds still; that
+                else:  # the demonstrator draws the hand back (then holds still); that
                     # belongs to the last key stage, the last observation shows it done
                     stage_idx[-1] = next((s for s in reversed(stage_idx) if s >= 0), -1)
                     tail, left = _draw_back(env, float(action[4])), POST_STEPS

@@ -42,7 +42,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from plugins._registry import PluginError
+from plugins._errors import PluginError
 from simhost.track2 import (
     FAMILIES,
     SPLITS,

@@ -217,7 +217,7 @@ def test_broken_packets_give_clear_errors(packet: Path, tmp_path: Path) -> None:
         read_demo_packet(bad)
 
 
-def test_attempt_vs_demo_picture(packet: Path) -> None:
+def test_attempt_vs_demo_picture(packet: Path, tmp_path: Path) -> None:
     pk = read_demo_packet(packet)
     env = BenchEnv(sample_instance("insertion", 40, source=sample_instance("insertion", 4)),
                    render_mode="rgb_array", image_size=(120, 160))
@@ -230,7 +230,7 @@ def test_attempt_vs_demo_picture(packet: Path) -> None:
             frames.append(env.render())
         if terminated or truncated:
             break
-    out = Path("/tmp/track2_attempt_vs_demo.png")
+    out = tmp_path / "attempt_vs_demo.png"
     png = render_attempt_vs_demo(pk, np.array(path), attempt_frames=frames, path=out)
     assert out.read_bytes() == png
     img = decode_png(png)

@@ -1,12 +1,13 @@
 """Campaigns: the spec from YAML, the episode plan, pinned images, and the driver (DESIGN §7).
 
-``run_campaign(spec)`` plans every (submission, split, index), asks the results store what
-is already there, and runs only the rest, one Ray task per episode, interleaving the
-submissions so that they progress evenly. Results stream back with ``ray.wait`` and each is
-committed at once. A result whose status is ``infra_error``, or a task whose worker died,
-is recorded as an attempt and run again with a new episode id, up to ``spec.retries``
-times; then the episode is quarantined (held back; the leaderboard marks that submission's
-final as pending; ``--retry-quarantined`` runs it again once an organizer decided so).
+``run_campaign(spec)`` (in ``_driver``) plans every (submission, split, index), asks the
+results store what is already there, and runs only the rest, one Ray task per episode,
+interleaving the submissions so that they progress evenly. Results stream back with
+``ray.wait`` and each is committed at once. A result whose status is ``infra_error``, or a
+task whose worker died, is recorded as an attempt and run again with a new episode id, up
+to ``spec.retries`` times; then the episode is quarantined (held back; the leaderboard
+marks that submission's final as pending; ``--retry-quarantined`` runs it again once an
+organizer decided so).
 Agent failures are final. Ctrl-C (or SIGTERM) cancels the running tasks, removes this
 campaign's containers on every node by label and keeps everything already committed.
 
@@ -71,6 +72,9 @@ class DriverFailure(CampaignError):
         super().__init__(message)
         self.exit_code = exit_code
 
+
+#: The Ray resource a node offers per container it may run at a time.
+SLOT = "eagc_slot"
 
 #: Exit codes of ``eagc campaign run`` for a campaign that had to stop (``ExitCode``).
 EXIT_STORE, EXIT_CLUSTER = 5, 6
@@ -162,7 +166,7 @@ class CampaignOptions:
     metrics_linger_s: float = 0.0
     progress: bool = True
     retry_quarantined: bool = False
-    cancel_grace_s: float = 10.0
+    cancel_grace_s: float = 20.0
     #: How long the GCS may refuse connections before the campaign is given up.
     cluster_patience_s: float = 10.0
 
@@ -267,6 +271,33 @@ def _token_auth() -> None:
         log.debug("Ray config not re-read: %s", e)
 
 
+def _reachable(address: str, patience_s: float = 10.0) -> None:
+    """A ``host:port`` address must answer within ``patience_s``: Ray itself would retry an
+    unreachable GCS for minutes, printing a warning every few seconds. ``auto`` and
+    ``ray://`` addresses are left to Ray."""
+    import socket
+
+    if address == "auto" or "://" in address or ":" not in address:
+        return
+    host, _, port = address.rpartition(":")
+    if not port.isdigit():
+        raise CampaignError(f"--address {address!r}: expected HOST:PORT of a Ray head "
+                            "(its GCS port, 6379 by default)")
+    deadline = time.monotonic() + patience_s
+    while True:
+        try:
+            with socket.create_connection((host or "127.0.0.1", int(port)), timeout=2.0):
+                return
+        except OSError as e:
+            if time.monotonic() > deadline:
+                raise DriverFailure(
+                    f"no Ray cluster answers at {address} ({e.strerror or e}): start its "
+                    f"head (`ray start --head --port {port} --resources "
+                    "'{\"eagc_slot\": N}'`) or correct --address; nothing was run",
+                    EXIT_CLUSTER) from None
+            time.sleep(0.5)
+
+
 @contextmanager
 def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[None]:
     """An existing cluster (``address``), the Ray already initialized, or an embedded one.
@@ -282,7 +313,6 @@ def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[Non
     import ray
 
     from orchestrator import _raysentinel as raysentinel
-    from orchestrator._fanout import SLOT
 
     owned = not ray.is_initialized()
     temp: str | None = None
@@ -291,6 +321,7 @@ def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[Non
         quiet: dict[str, Any] = {"log_to_driver": False, "logging_level": logging.WARNING,
                                  "namespace": "eagc"}
         if options.address:
+            _reachable(options.address)
             ray.init(address=options.address, **quiet)
         else:
             cpus = max(os.cpu_count() or 1, math.ceil(options.workers * spec.limits.cpus))
@@ -356,11 +387,3 @@ class ClusterWatch:
 
     def close(self) -> None:
         self._stop.set()
-
-
-def run_campaign(spec: CampaignSpec, options: CampaignOptions | None = None, *,
-                 console: Any = None) -> CampaignReport:
-    """Runs what the store lacks of ``spec``; returns what this run did (``_driver``)."""
-    from orchestrator._driver import run_campaign as run
-
-    return run(spec, options, console=console)

@@ -133,7 +133,8 @@ def run_cmd(
     progress: Annotated[bool, typer.Option(help="Show the progress bar.")] = True,
 ) -> None:
     """Run a campaign, or resume it: only episodes missing from the store are run."""
-    from orchestrator._campaign import CampaignOptions, run_campaign
+    from orchestrator._campaign import CampaignOptions
+    from orchestrator._driver import run_campaign
 
     spec = _load(campaign)
     options = CampaignOptions(address=address, workers=workers, metrics_port=metrics_port,

@@ -139,18 +139,19 @@ def run_demo(*, runtime: str = "auto", tracks: list[str] | None = None,
     130 when cancelled). ``console``: progress and notes; leaderboards go to stdout."""
     import os
 
-    from orchestrator._campaign import CampaignOptions, run_campaign
+    from orchestrator._campaign import CampaignOptions
     from orchestrator._campaign_cli import _print_leaderboard, where_results
     from orchestrator._cli_common import ExitCode
+    from orchestrator._driver import run_campaign
 
     console = console or Console(stderr=True)
     files = demo_files(tracks)
     if not files:
         raise UsageError(f"no demo campaign files in {DEMOS} for the installed tracks")
     if runtime == "auto":
-        from orchestrator.cli import _docker_answers
+        from orchestrator._engine import docker_answers
 
-        runtime = "docker" if _docker_answers() else "local"
+        runtime = "docker" if docker_answers() else "local"
         if runtime == "local":
             console.print("[yellow]No Docker engine answers: the example agents run as local "
                           "processes (no sandbox).[/]")

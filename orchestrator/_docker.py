@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from orchestrator._engine import docker_client
 from orchestrator._reaper import HEARTBEAT_LABEL, start_watcher
 from orchestrator._runtime import (
     LABEL_PREFIX,
@@ -35,21 +36,6 @@ _CGROUP_PEAK = (
     "/sys/fs/cgroup/system.slice/docker-{id}.scope/memory.peak",  # v2, systemd driver
     "/sys/fs/cgroup/docker/{id}/memory.peak",  # v2, cgroupfs driver
 )
-
-
-def docker_client() -> Any:
-    """A docker SDK client, or InfraError saying how to get an engine."""
-    import docker
-
-    try:
-        client = docker.from_env(timeout=120)
-        client.ping()
-    except Exception as e:  # noqa: BLE001
-        raise InfraError(
-            f"no Docker engine answers ({e}). Start one (`dockerd &` as root, or "
-            "`systemctl start docker`), or use --runtime local for development."
-        ) from e
-    return client
 
 
 def read_peak_memory(container_id: str) -> int | None:

@@ -419,24 +419,36 @@ class Driver:
             self.console.print(f"[yellow]cancelling {len(self.pending)} episode(s); committed "
                                "results are kept, run the campaign again to resume[/]")
         self.events.try_write("cancelled", pending=len(self.pending))
-        for ref in self.pending:
-            ray.cancel(ref)  # KeyboardInterrupt in the task: run_episode stops its container
+        # Ray's cancel races with a task's own reply (its core worker then aborts the whole
+        # process: "Tried to complete task that was not pending"): cancel only tasks not
+        # known to be done, once each, and never force-kill one that may be finishing. A
+        # task still running after the grace is ended by the container cleanup below (its
+        # agent is gone) and by Ray when this driver leaves.
         deadline = time.time() + self.options.cancel_grace_s
         try:
+            self._collect(timeout=0)
+            for ref in self.pending:
+                ray.cancel(ref)  # KeyboardInterrupt in the task: run_episode stops its container
             while self.pending and time.time() < deadline:
-                ready, _ = ray.wait(list(self.pending), num_returns=len(self.pending),
-                                    timeout=0.5)
-                for ref in ready:
-                    try:
-                        self._finish(ref)
-                    except StoreError as e:  # the store broke while we were cancelling
-                        self.broken = self.broken or e
+                self._collect(timeout=0.5)
         except KeyboardInterrupt:
             pass
-        for ref in self.pending:
-            ray.cancel(ref, force=True)
         self.pending.clear()
         self._reaped(len(cleanup_nodes({"campaign": self.name}, str(self.folder))))
+
+    def _collect(self, timeout: float) -> None:
+        """Finish (commit) whichever pending tasks are done within ``timeout`` seconds."""
+        import ray
+
+        if not self.pending:
+            return
+        ready, _ = ray.wait(list(self.pending), num_returns=len(self.pending),
+                            timeout=timeout)
+        for ref in ready:
+            try:
+                self._finish(ref)
+            except StoreError as e:  # the store broke while we were cancelling
+                self.broken = self.broken or e
 
     def _fail(self, fault: StoreError | ClusterLost) -> None:
         """The store or the cluster failed: the cancel path, then DriverFailure."""

@@ -29,11 +29,11 @@ from typing import Any
 
 import ray
 
+from orchestrator._campaign import SLOT, CampaignError
 from schemas import CampaignSpec, Limits
 
 log = logging.getLogger("eagc.fanout")
 
-SLOT = "eagc_slot"
 _PACKAGES = ("orchestrator", "plugins", "schemas", "simhost")
 
 
@@ -279,7 +279,6 @@ class PinnedImage:
 
 def pin_images(spec: CampaignSpec, client: Any | None = None) -> dict[str, PinnedImage]:
     """Loads archives, checks pinned IDs and pins unpinned local images to their current ID."""
-    from orchestrator._campaign import CampaignError
 
     if spec.runtime == "local":
         return {s.team: PinnedImage(s.team, s.image, None, None) for s in spec.submissions}

@@ -119,7 +119,7 @@ reaped_here = 0
 def reap_here() -> int:
     """``reap_stale`` on this node's engine; 0 if there is none."""
     global reaped_here
-    from orchestrator._docker import docker_client
+    from orchestrator._engine import docker_client
 
     try:
         n = len(reap_stale(docker_client()))

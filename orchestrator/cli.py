@@ -68,16 +68,6 @@ def local_command(image: str) -> str:
     return f"python {folder / 'agent.py'}"
 
 
-def _docker_answers() -> bool:
-    try:
-        from orchestrator._docker import docker_client
-
-        docker_client()
-        return True
-    except Exception:  # noqa: BLE001
-        return False
-
-
 def _runtime(name: str):  # noqa: ANN202
     if name == "docker":
         from orchestrator._docker import DockerRuntime

@@ -5,7 +5,8 @@ Public API: ``TrackPlugin``, ``Scenario``, ``ScoringInput``, ``FileRule``, ``loa
 """
 
 from plugins._base import Column, FileRule, Scenario, ScoringInput, TrackPlugin
-from plugins._registry import GROUP, PluginError, available_tracks, load_track, validate_plugin
+from plugins._errors import PluginError
+from plugins._registry import GROUP, available_tracks, load_track, validate_plugin
 from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
 
 __all__ = [

@@ -20,6 +20,7 @@ from typing import Any, ClassVar
 
 from pydantic import BaseModel
 
+from plugins._errors import PluginError
 from schemas import (
     EndReason,
     EpisodeResult,
@@ -158,15 +159,11 @@ class TrackPlugin(ABC):
         for every colour and marker; a scale) and returns its path (default: in the
         episode's ``host/`` folder). Raises ``PluginError`` when the track has none,
         ``ValueError`` when the folder is not one of this track's episodes."""
-        from plugins._registry import PluginError
-
         raise PluginError(f"track {self.name!r} draws no pictures of episodes")
 
     def preview(self, *, seed: int, split: str, out: Path) -> Path:
         """Draws the scenario of a (public) seed as a PNG in folder ``out`` and returns its
         path. Raises ``PluginError`` when the track has no previews."""
-        from plugins._registry import PluginError
-
         raise PluginError(f"track {self.name!r} has no scenario previews")
 
     def write_inputs(self, scenario: Scenario, folder: Path) -> None:  # noqa: B027

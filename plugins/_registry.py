@@ -8,13 +8,9 @@ from functools import cache
 from importlib.metadata import EntryPoint, entry_points
 
 from plugins._base import TrackPlugin
-from schemas import EagcError
+from plugins._errors import PluginError
 
 GROUP = "eagc.tracks"
-
-
-class PluginError(EagcError, RuntimeError):
-    """Raised when a track cannot be found, loaded or used (the root of plugins' errors)."""
 
 
 def _entry_points() -> dict[str, EntryPoint]:

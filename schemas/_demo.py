@@ -62,11 +62,16 @@ class Annotation(_Frozen):
     Events: ``grasped``/``released`` (a grasp begins/ends), ``lifted``, ``dropped`` and the
     family's goal event — ``inserted`` (insertion), ``turned`` (rotation), ``placed``
     (assembly), ``opened``/``closed`` (opening), ``pressed``/``aligned`` (tool use).
-    ``value`` is set on the goal event only: the magnitude the demonstration reached at its
-    end — ``inserted``: depth (m); ``turned``: the angle turned (rad, + counter-clockwise
-    seen from above); ``placed``: parts placed; ``opened``/``closed``: the opening fraction
-    (0 closed, 1 fully open); ``pressed``: the button's travel (m); ``aligned``: the puck's
-    offset from the goal line along x (m).
+    ``value`` is set on the goal event only. On the official splits an annotation states
+    what an annotator can state and the observations cannot show: ``opened``/``closed``
+    carry the opening fraction reached, to a tenth (0 closed, 1 fully open: the joint's
+    range is not in the observations); every other magnitude (the depth, the turn, ...) is
+    not given and must be read off the demonstration's observations. On the public ``dev``
+    split every goal event carries the magnitude the demonstration reached at its end —
+    ``inserted``: depth (m); ``turned``: the angle turned (rad, + counter-clockwise seen from
+    above); ``placed``: parts placed; ``opened``/``closed``: the opening fraction;
+    ``pressed``: the button's travel (m); ``aligned``: the puck's offset from the goal line
+    along x (m).
     """
 
     step: int = Field(ge=0)

@@ -9,6 +9,8 @@ the observation cannot show comes from the demonstration, passed in ``hints``:
 - ``turn``: the signed angle the demonstration turned (rad);
 - ``fraction``: the opening fraction it left a mechanism at;
 - ``mechanism``: ``press`` or ``pull`` (its last key stage);
+- ``slot``: the tool slot the demonstration took its tool from (the longer tool when that
+  slot is empty);
 
 and a controller falls back to a plain guess when the packet does not say.
 """
@@ -354,7 +356,9 @@ def pick_tool(v: View, press: bool) -> tuple[int, float]:
 def tool_use(v: View, hints: dict[str, Any]) -> Plan:
     yield from look(v, 6)
     press = hints.get("mechanism", "press") == "press"
-    slot, _ = pick_tool(v, press)
+    slot = int(hints.get("slot", -1))
+    if slot not in (0, 1) or not v.present(2 * slot):  # the demonstration's slot is empty
+        slot, _ = pick_tool(v, press)
     tool, tip = 2 * slot, 2 * slot + 1
     tool_yaw = v.yaw(tool)
     top = v.p.point(tool, 0.015 if press else 0.03)

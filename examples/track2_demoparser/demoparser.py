@@ -10,14 +10,16 @@ Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), ``schemas`` (the p
 - ``parsing``: segments the demonstration into its key stages (the manifest's labels and
   state-change annotations: grasp, release, ...), takes from it what the observation
   cannot show — the goal annotation's magnitude (the turn, the opening fraction, the
-  depth), the last key stage (press or pull) — writes ``task_model.json`` and ends the stage.
+  depth), the last key stage (press or pull), the slot whose tool it took — writes
+  ``task_model.json`` and ends the stage.
   Nothing moves here.
 - ``execution``: the family's scripted controller (``controllers.py``), closed on filtered
   observations (``perception.py``); when it is through without success it ends the attempt
   and runs again (an opening's measured range is kept across attempts).
 
-It does what the demonstration did, with the same stages; it does not check whether the
-instance's mechanism or direction differ, nor verify the goal after acting.
+It does what the demonstration did, with the same stages and the same tool slot; it does
+not check whether the instance's mechanism, direction or useful tool differ, nor verify the
+goal after acting.
 """
 
 from __future__ import annotations
@@ -78,6 +80,11 @@ def demo_hints(man: DemoManifest, arrays: dict[str, np.ndarray]) -> dict[str, An
         hints["depth"] = goal.value
     elif man.family == "tool_use":
         hints["mechanism"] = man.stage_names[-1]
+        # the slot whose tool the demonstration took: the tool row that moved most
+        parts = arrays["obs_parts"]
+        moved = [float(np.linalg.norm(parts[-1, 2 * s, 1:3] - parts[0, 2 * s, 1:3]))
+                 if parts[0, 2 * s, 0] > 0.5 else -1.0 for s in (0, 1)]
+        hints["slot"] = int(np.argmax(moved))
     return hints
 
 

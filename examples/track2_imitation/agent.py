@@ -47,8 +47,9 @@ def main() -> int:
                     with np.load(folder / "trajectory.npz", allow_pickle=False) as npz:
                         prop, parts, acts = npz["obs_proprio"], npz["obs_parts"], npz["actions"]
                     stages = [(ks.name, ks.start, ks.end) for ks in man.key_stages]
+                    grasps = [e.step for e in man.events if e.event == "grasped"]
                     policy = Policy(weights[man.family], attention[man.family], prop, parts,
-                                    acts, stages)
+                                    acts, stages, grasps)
                     files.write(TaskModel(step=steps, family=man.family, stages=man.stage_names))
                     files.log(step=steps, stage=ts.stage, event="plan",
                               data={"demo_steps": man.num_steps})

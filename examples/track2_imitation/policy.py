@@ -3,17 +3,25 @@
 The policy reads the demonstration as a sequence of hand targets and attends, at every
 phase, to one part: which part a key stage's motion is relative to is *learned* offline per
 family and key stage (``train.py``: the part in whose frame the expert's targets vary least
-between instances). At run time::
+between instances; a row, or the part the demonstration takes at its next grasp). At run
+time::
 
-    target_k = pose(part_attended(k), now)  (+)  rel_k          # the demo's target, moved
+    target_k = pose(part_attended(k), at anchor(k))  (+)  rel_k   # the demo's target, moved
     a_t      = clip(servo(target_k - control target) + W^T [s(o_t) - s(d_k), 1], -1, 1)
 
 ``rel_k`` is the demonstration's control target after its ``k``-th action in the frame of
-the attended part as the demonstration observed it; the pointer ``k`` advances when the hand
-is near ``target_k`` (the phase follows progress, not the clock); the grip is the
-demonstration's. ``W`` is a small linear correction fitted on expert rollouts. No stage is
-checked, nothing is verified, nothing is remembered between attempts. Numpy only; shared by
-the agent and the training script.
+the attended part as the demonstration observed it at the *anchor* of step ``k``: the last
+grasp annotated at or before ``k`` (the start if none). The frame is frozen while the hand
+acts, so a motion that moves the attended part (a turn, a slide) is reproduced as a motion
+relative to where the part was when the hand took hold, not cancelled by following the part
+as it moves; at run time the anchor pose is the mean of the part's recent measurements when
+the pointer passes the anchor (before the first grasp: the latest mean, nothing is held
+yet). Training may instead pick a *live* frame for a stage (the part's latest mean, not
+frozen: ``LIVE`` added to the attention value) where that makes the runs agree better. The
+pointer ``k`` advances when the hand is near ``target_k`` (the phase follows progress, not
+the clock); the grip is the demonstration's. ``W`` is a small linear correction fitted on
+expert rollouts. No stage is checked, nothing is verified, nothing is remembered between
+attempts. Numpy only; shared by the agent and the training script.
 """
 
 from __future__ import annotations
@@ -95,8 +103,53 @@ def stage_of(key_stages: list[tuple[str, int, int]], k: int) -> str:
 
 
 def stage_kind(name: str) -> str:
-    """A key stage's kind, without its part suffix (``reach_part2`` -> ``reach``)."""
-    return name.split("_part")[0]
+    """The key stage attention is learned for: the stage's own name (``reach_part2`` has its
+    own attended part, the one ``part2`` goes onto)."""
+    return name
+
+
+def anchor_of(anchors: list[int], k: int) -> int:
+    """The anchor of demonstration step ``k``: the last of ``anchors`` (grasp steps) at or
+    before ``k``, else 0."""
+    return max((a for a in anchors if a <= k), default=0)
+
+
+def mean_pose(poses: list[np.ndarray]) -> np.ndarray:
+    """The mean of part poses ``[x, y, z, yaw]`` (the yaw's circular mean)."""
+    arr = np.asarray(poses, dtype=float)
+    yaw = math.atan2(float(np.mean(np.sin(arr[:, 3]))), float(np.mean(np.cos(arr[:, 3]))))
+    return np.array([*arr[:, :3].mean(axis=0), yaw])
+
+
+NEXT = ROWS
+"""An attention value meaning "the part the demonstration takes at its next grasp"."""
+LIVE = 8
+"""Added to an attention value: the part's frame as it is now, not frozen at the grasp."""
+
+
+def grasped_rows(parts: np.ndarray, grasps: list[int]) -> list[int]:
+    """Per grasp step, the row the hand took: the one that moved most until the next grasp
+    (or the end)."""
+    out = []
+    for j, g in enumerate(grasps):
+        end = grasps[j + 1] if j + 1 < len(grasps) else len(parts) - 1
+        d = np.linalg.norm(parts[end, :, 1:4] - parts[g, :, 1:4], axis=1)
+        yaw = np.array([abs(wrap(yaw_of(parts[end, i, 4:8]) - yaw_of(parts[g, i, 4:8])))
+                        for i in range(len(parts[g]))])
+        score = np.where(parts[g, :, 0] > 0.5, d + 0.05 * yaw, -1.0)
+        out.append(int(np.argmax(score[:ROWS])))
+    return out
+
+
+def attended_row(attend: int, parts: np.ndarray, grasps: list[int], taken: list[int],
+                 k: int) -> int:
+    """The row an attention value means at step ``k``: a row, or (``NEXT``) the row taken at
+    the first grasp after ``k`` (the last grasp's after the last)."""
+    attend %= LIVE
+    if attend != NEXT:
+        return attend
+    nxt = [r for g, r in zip(grasps, taken, strict=True) if g > k]
+    return nxt[0] if nxt else (taken[-1] if taken else 0)
 
 
 class Policy:
@@ -104,25 +157,34 @@ class Policy:
 
     def __init__(self, weights: np.ndarray, attend: dict[str, int], proprio: np.ndarray,
                  parts: np.ndarray, actions: np.ndarray,
-                 key_stages: list[tuple[str, int, int]]) -> None:
+                 key_stages: list[tuple[str, int, int]], anchors: list[int]) -> None:
         self.w = weights
         self.actions = np.asarray(actions, dtype=float)
         self.states = np.stack([state(p, q) for p, q in zip(proprio, parts, strict=True)])
         tgt = targets(proprio, actions)
-        self.rows = []
+        self.rows: list[int] = []
+        self.anchors: list[int] = []
+        self.live: list[bool] = []
         self.rel = []
+        taken = grasped_rows(np.asarray(parts, dtype=float), anchors)
         for k in range(len(actions)):
-            row = attend.get(stage_kind(stage_of(key_stages, k)), 0)
-            if parts[k, row, 0] < 0.5:
+            att = attend.get(stage_kind(stage_of(key_stages, k)), 0)
+            row = attended_row(att, np.asarray(parts), anchors, taken, k)
+            live = att >= LIVE
+            a = k + 1 if live else anchor_of(anchors, k)  # observation k + 1 follows action k
+            self.live.append(live)
+            if parts[a, row, 0] < 0.5:
                 row = 0
             self.rows.append(row)
-            self.rel.append(relative(tgt[k], part_pose(parts[k, row])))
+            self.anchors.append(a)
+            self.rel.append(relative(tgt[k], part_pose(parts[a, row])))
         self.k = 0
         self.target: np.ndarray | None = None
         self.seen: dict[int, list[np.ndarray]] = {}
+        self.frozen: dict[tuple[int, int], np.ndarray] = {}
 
     def reset(self) -> None:
-        self.k, self.target, self.seen = 0, None, {}
+        self.k, self.target, self.seen, self.frozen = 0, None, {}, {}
 
     @property
     def done(self) -> bool:
@@ -133,12 +195,16 @@ class Policy:
         parts = np.asarray(obs["parts"], dtype=float)
         if self.target is None:
             self.target = prop[:4].copy()
-        row = self.rows[self.k]
-        if parts[row, 9] <= 0.2:  # a fresh measurement: average the part's pose a little
-            self.seen.setdefault(row, []).append(part_pose(parts[row]))
-        pose = np.mean(self.seen[row][-8:], axis=0) if row in self.seen else part_pose(
-            parts[row])
-        goal = absolute(self.rel[self.k], pose)
+        for i in range(min(ROWS, len(parts))):  # fresh measurements of every part
+            if parts[i, 0] > 0.5 and parts[i, 9] <= 0.2:
+                self.seen.setdefault(i, []).append(part_pose(parts[i]))
+        row, key = self.rows[self.k], (self.anchors[self.k], self.rows[self.k])
+        now = mean_pose(self.seen[row][-8:]) if row in self.seen else part_pose(parts[row])
+        if key[0] == 0 or self.live[self.k]:  # nothing held yet, or a live frame
+            self.frozen[key] = now
+        elif key not in self.frozen:  # the pointer passed the grasp: freeze the frame
+            self.frozen[key] = now
+        goal = absolute(self.rel[self.k], self.frozen[key])
         step = np.clip(goal - self.target, -SCALE, SCALE)
         step[3] = float(np.clip(wrap(goal[3] - self.target[3]), -DYAW, DYAW))
         a = np.append(step / SCALE, self.actions[self.k, 4])

@@ -8,9 +8,12 @@ For every family, ``--pairs`` times: draw a source instance and a hidden instanc
 observation channel (the registered gymnasium benches, ``eagc/Bench-<Family>-v0``). Steps
 of the two runs are matched by key stage and the fraction of it done. Then, per family:
 
-- attention: for each kind of key stage, the part in whose frame the expert's hand targets
-  agree best between the two runs (the motion is relative to it), among the parts that stay
-  put during that stage (a part the hand carries agrees trivially and says nothing);
+- attention: for each key stage, the part in whose frame (frozen at the last grasp, as
+  ``policy.py`` reads it) the expert's hand targets agree best between the two runs (the
+  motion is relative to it), among the parts that do not travel during that stage (a part
+  the hand carries says where it was, not where it goes; a knob turning in place counts);
+  or the same in a *live* frame (the part as it is now) among the parts that neither travel
+  nor turn (following a part the hand turns would cancel the turn);
 - correction: a ridge regression from ``s(o) - s(d)`` to what the expert did beyond what
   following the attended part's moved target would do.
 
@@ -34,15 +37,21 @@ sys.path.insert(0, str(HERE))
 from policy import (  # noqa: E402
     DIM,
     DYAW,
+    LIVE,
+    NEXT,
     SCALE,
     absolute,
+    anchor_of,
+    attended_row,
     features,
+    grasped_rows,
     part_pose,
     relative,
     stage_kind,
     state,
     targets,
     wrap,
+    yaw_of,
 )
 
 
@@ -51,17 +60,19 @@ def rollout(env, expert_cls, seed: int) -> dict[str, np.ndarray | list[str]]:
     obs, info = env.reset(seed=seed)
     expert = expert_cls(env.unwrapped)
     prop, parts, acts, stages = [obs["proprio"]], [obs["parts"]], [], [info["stage"]]
+    grasps: list[int] = []
     while True:
         a = expert()
         obs, _, term, trunc, info = env.step(a)
         acts.append(a)
+        grasps += [len(acts)] * sum(e["event"] == "grasped" for e in info["events"])
         prop.append(obs["proprio"])
         parts.append(obs["parts"])
         stages.append(info["stage"])
         if term or trunc:
             break
     return {"proprio": np.asarray(prop, float), "parts": np.asarray(parts, float),
-            "actions": np.asarray(acts, float), "stages": stages}
+            "actions": np.asarray(acts, float), "stages": stages, "grasps": grasps}
 
 
 def align(demo: dict, run: dict) -> list[tuple[int, int, str]]:
@@ -123,40 +134,61 @@ def main() -> int:
                 env.close()
             runs.append(pair)
         # attention: per stage kind, the part whose frame makes the two runs' targets agree
-        err: dict[str, np.ndarray] = defaultdict(lambda: np.zeros(6))
+        err: dict[str, np.ndarray] = defaultdict(lambda: np.zeros(2 * LIVE))
         cnt: dict[str, int] = defaultdict(int)
         for demo, run in runs:
             td, tr = targets(demo["proprio"], demo["actions"]), targets(run["proprio"],
                                                                           run["actions"])
-            moved: dict[str, np.ndarray] = {}
+            moved: dict[str, np.ndarray] = {}  # travelled during the stage
+            turned: dict[str, np.ndarray] = {}  # travelled or turned (no live frame then)
             for kind in {stage_kind(x) for x in demo["stages"][:-1]}:
                 idx = [i for i, x in enumerate(demo["stages"][:-1]) if stage_kind(x) == kind]
-                pos = demo["parts"][idx, :, 1:4]
-                moved[kind] = np.ptp(pos, axis=0).max(axis=1) > 0.02
+                moved[kind] = np.ptp(demo["parts"][idx, :, 1:4], axis=0).max(axis=1) > 0.02
+                yaws = np.array([[yaw_of(q) for q in demo["parts"][i, :, 4:8]] for i in idx])
+                turned[kind] = moved[kind] | (np.abs(np.unwrap(yaws, axis=0)
+                                                     - yaws[:1]).max(axis=0) > 0.3)
+            taken_d = grasped_rows(demo["parts"], demo["grasps"])
+            taken_r = grasped_rows(run["parts"], run["grasps"])
             for k, j, kind in align(demo, run):
-                for row in range(min(6, run["parts"].shape[1])):
-                    if (run["parts"][k, row, 0] < 0.5 or demo["parts"][j, row, 0] < 0.5
-                            or moved.get(kind, np.zeros(6, bool))[row]):
-                        err[kind][row] += 1.0
+                base_c = [*range(min(NEXT, run["parts"].shape[1])), NEXT]
+                for att in [*base_c, *(LIVE + c for c in base_c)]:
+                    rr = attended_row(att, run["parts"], run["grasps"], taken_r, k)
+                    rd = attended_row(att, demo["parts"], demo["grasps"], taken_d, j)
+                    if att >= LIVE:  # the part's frame now (observation after the action)
+                        ak, aj = k + 1, j + 1
+                    else:
+                        ak, aj = anchor_of(run["grasps"], k), anchor_of(demo["grasps"], j)
+                    gone = (turned if att >= LIVE else moved).get(kind, np.zeros(NEXT, bool))
+                    if (run["parts"][ak, rr, 0] < 0.5 or demo["parts"][aj, rd, 0] < 0.5
+                            or gone[rd]):
+                        err[kind][att] += 1.0
                         continue
-                    a = relative(tr[k], part_pose(run["parts"][k, row]))
-                    b = relative(td[j], part_pose(demo["parts"][j, row]))
-                    err[kind][row] += float(np.linalg.norm(a[:3] - b[:3]))
+                    a = relative(tr[k], part_pose(run["parts"][ak, rr]))
+                    b = relative(td[j], part_pose(demo["parts"][aj, rd]))
+                    err[kind][att] += float(np.linalg.norm(a[:3] - b[:3]))
                 cnt[kind] += 1
         rows = runs[0][1]["parts"].shape[1]
-        attend = {kind: int(np.argmin(e[:rows])) for kind, e in err.items()}
+        valid = [*range(rows), NEXT, *(LIVE + c for c in (*range(rows), NEXT))]
+        attend = {kind: int(valid[int(np.argmin(e[valid]))]) for kind, e in err.items()}
         attention[fam] = attend
         # correction: expert action minus the attended-target servo
         xs, ys = [], []
         for demo, run in runs:
             td = targets(demo["proprio"], demo["actions"])
             tr = targets(run["proprio"], run["actions"])
+            taken_d = grasped_rows(demo["parts"], demo["grasps"])
             for k, j, kind in align(demo, run):
-                row = attend.get(kind, 0)
-                if run["parts"][k, row, 0] < 0.5 or demo["parts"][j, row, 0] < 0.5:
+                att = attend.get(kind, 0)
+                if att >= LIVE:
+                    ak, aj = k + 1, j + 1
+                else:
+                    ak, aj = anchor_of(run["grasps"], k), anchor_of(demo["grasps"], j)
+                # the policy attends the demonstration's row, in both runs
+                row = attended_row(att, demo["parts"], demo["grasps"], taken_d, j)
+                if run["parts"][ak, row, 0] < 0.5 or demo["parts"][aj, row, 0] < 0.5:
                     continue
-                goal = absolute(relative(td[j], part_pose(demo["parts"][j, row])),
-                                part_pose(run["parts"][k, row]))
+                goal = absolute(relative(td[j], part_pose(demo["parts"][aj, row])),
+                                part_pose(run["parts"][ak, row]))
                 now = tr[k - 1] if k else run["proprio"][0, :4]
                 step = np.clip(goal - now, -SCALE, SCALE)
                 step[3] = float(np.clip(wrap(goal[3] - now[3]), -DYAW, DYAW))

@@ -30,7 +30,7 @@ import numpy as np
 from plugins._base import Scenario
 from plugins.track2._outcome import AttemptRecord, Track2Outcome
 from plugins.track2._scenario import Track2Scenario
-from schemas._protocol import ActionResult, FieldSpec, HostMessage
+from schemas._protocol import ActionResult, EndReason, FieldSpec, HostMessage
 from simhost._episode import Observation, Pose, StageEnd, StepOutcome, TrackEpisode
 
 DEMONSTRATION, PARSING, EXECUTION = "demonstration", "parsing", "execution"
@@ -203,7 +203,7 @@ class Track2Episode(TrackEpisode):
                 action=ActionResult(applied=True, ok=True),
                 messages=(self._result_message(att),),
                 episode_over=True,
-                end_reason="success",
+                end_reason=EndReason.SUCCESS,
                 events=({"event": "attempt_end", **att.model_dump()},),
             )
         if att.steps >= self.cap:
@@ -298,7 +298,7 @@ class Track2Episode(TrackEpisode):
         result = ActionResult(applied=applied, ok=True, reason=f"attempt {att.index} ended ({why})")
         if att.index >= self.max_attempts:
             return StepOutcome(observation=self.observe(), action=result, messages=(message,),
-                               episode_over=True, end_reason="attempts_used", events=events)
+                               episode_over=True, end_reason=EndReason.ATTEMPTS_USED, events=events)
         self._reset_env(att.index + 1)
         self._start_attempt()
         return StepOutcome(observation=self.observe(), action=result, messages=(message,),

@@ -12,10 +12,21 @@ campaign (families balanced by index), ``FAMILIES[seed % 5]`` for a one-off epis
 the split names one.
 
 Feasibility: the privileged expert must solve the source (the packet shows a success), and
-the *observation* expert — the scripted expert reading the noisy, delayed, occluded
-observations the agent will get, with the first attempt's very noise — must solve the
-hidden instance within one attempt's step cap. A draw that fails is redrawn with the next
-sub-seed, at most ``MAX_DRAWS`` times; ``Track2Scenario.expert_steps`` records what it took.
+the *feasibility expert* must solve the hidden instance. It is the scripted expert knowing
+the instance's parameters (what a perfect task model would know) but perceiving only
+through the observations the agent will get — noisy, delayed, occluded, biased — with
+robust estimation (averaging while still, servoing on relative poses) and contact search;
+like the agent it has ``max_attempts`` attempts, attempt ``k`` with the agent's reset seed
+of attempt ``k`` (the same jitter and noise) and the episode's measurement biases, each
+within the family's step cap. A draw it does not solve is redrawn with the next sub-seed,
+at most ``MAX_DRAWS`` times; ``Track2Scenario.expert_steps`` / ``expert_attempt`` / ``draws``
+record what it took. Keeping only draws solved at the first attempt would keep the easy
+ones (the favourable noise and biases); any attempt counts, as it does for an agent.
+
+Step budget: on a split with a ``budget_factor`` (the official ones), an attempt may take
+``ceil(budget_factor * expert_steps)`` steps (at most the family's cap): a multiple of what a
+system that knows the instance needs, so that probing every alternative does not fit.
+Otherwise (``dev``) the family's cap; ``params.attempt_steps`` overrides both.
 
 Scenario parameters (organizer-only) are one typed model, :class:`Track2Scenario`.
 """
@@ -31,7 +42,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from plugins._registry import PluginError
+from plugins._errors import PluginError
 from simhost.track2 import (
     FAMILIES,
     SPLITS,
@@ -67,8 +78,10 @@ class Track2Scenario(BaseModel):
     attempt_steps: int
     max_attempts: int
     demo_frames: bool = True
-    expert_steps: int | None = Field(description="Steps the observation expert needed on the "
-                                     "first attempt (None: no draw was solved).")
+    expert_steps: int | None = Field(description="Steps the feasibility expert needed on the "
+                                     "attempt it solved (None: no draw was solved).")
+    expert_attempt: int | None = Field(None, description="The attempt the feasibility expert "
+                                       "solved (1-based; None: none).")
     draws: int = Field(description="Instances drawn until one was feasible.")
 
     def reset_seed(self, attempt: int) -> int:
@@ -120,10 +133,11 @@ def _check(split: str, params: Mapping[str, Any]) -> str:
 
 @functools.lru_cache(maxsize=512)
 def expert_steps(instance_json: str, bench_json: str, seed: int, bias_seed: int | None,
-                 cap: int, observed: bool) -> int | None:
-    """Steps the scripted expert needs on an instance reset with ``seed`` (and the episode's
-    ``bias_seed``), ``None`` if not solved within ``cap``. ``observed``: it reads the
-    observations, not the simulation."""
+                 cap: int, observed: bool, attempts: int = 1) -> tuple[int, int] | None:
+    """``(steps, attempt)``: the steps the scripted expert needed on the first of up to
+    ``attempts`` attempts it solved, attempt ``k`` reset with ``seed + k - 1`` (and the
+    episode's ``bias_seed``); ``None`` if it solved none within ``cap`` steps each.
+    ``observed``: it reads the observations, not the simulation."""
     from simhost.track2 import BenchEnv, ScriptedExpert
 
     bench = BenchConfig.model_validate_json(bench_json)
@@ -133,24 +147,25 @@ def expert_steps(instance_json: str, bench_json: str, seed: int, bias_seed: int 
     env = BenchEnv(InstanceParams.model_validate_json(instance_json), config=bench,
                    render_rgbd=False, max_steps=cap)
     try:
-        obs, _ = env.reset(seed=seed, options={"bias_seed": bias_seed})
-        expert = ScriptedExpert(env, observed=observed, obs=obs)
-        for k in range(1, cap + 1):
-            obs, _, terminated, truncated, info = env.step(expert(obs))
-            if info["success"]:
-                return k
-            if terminated or truncated:
-                return None
+        for attempt in range(1, attempts + 1):
+            obs, _ = env.reset(seed=seed + attempt - 1, options={"bias_seed": bias_seed})
+            expert = ScriptedExpert(env, observed=observed, obs=obs)
+            for k in range(1, cap + 1):
+                obs, _, terminated, truncated, info = env.step(expert(obs))
+                if info["success"]:
+                    return k, attempt
+                if terminated or truncated:
+                    break
         return None
     finally:
         env.close()
 
 
 def _first_solved(draw: Callable[[int], tuple[InstanceParams, int]],
-                  solved: Callable[[InstanceParams, int], int | None]
-                  ) -> tuple[InstanceParams, int, int | None, int]:
+                  solved: Callable[[InstanceParams, int], tuple[int, int] | None]
+                  ) -> tuple[InstanceParams, int, tuple[int, int] | None, int]:
     """The first draw ``draw(0)``, ``draw(1)``, … (an instance and its episode seed) that
-    ``solved`` solves, else the last; with the expert's steps and the number of draws."""
+    ``solved`` solves, else the last; with what ``solved`` said and the number of draws."""
     params, seed = draw(0)
     steps = None
     for k in range(1, MAX_DRAWS + 1):
@@ -175,12 +190,12 @@ def make_track2_scenario(seed: int, split: str, params: Mapping[str, Any],
     if params.get("rgbd_only"):
         bench = bench.model_copy(update={"observation": bench.observation.model_copy(
             update={"parts": False, "rgbd": True, "segmentation": True})})
-    cap = int(params.get("attempt_steps") or family_step_cap(family))
+    full = family_step_cap(family)
+    max_attempts = int(params.get("max_attempts", MAX_ATTEMPTS))
     rng = np.random.default_rng(seed)
     src_seed, inst_seed, demo_seed, episode_seed = (
         int(x) for x in rng.integers(0, 2**31 - (MAX_DRAWS + 1) * (MAX_ATTEMPTS + 1), 4))
     bench_json = bench.model_dump_json()
-    full = family_step_cap(family)
     around_canon = variation.model_copy(update={"goal_from_source": False,
                                                 "difficulty": variation.source_spread})
     source, demo_seed, _, _ = _first_solved(
@@ -188,13 +203,21 @@ def make_track2_scenario(seed: int, split: str, params: Mapping[str, Any],
         lambda p, s: expert_steps(p.model_dump_json(), bench_json, s, None, full, False))
     # A redraw also redraws the episode's seed: its jitter, noise and measurement biases.
     stride = MAX_ATTEMPTS + 1
-    instance, episode_seed, steps, draws = _first_solved(
+    instance, episode_seed, solved, draws = _first_solved(
         lambda k: (sample_instance(family, inst_seed + k, source=source, variation=variation),
                    episode_seed + stride * k),
-        lambda p, s: expert_steps(p.model_dump_json(), bench_json, s + 1, s, cap, True))
+        lambda p, s: expert_steps(p.model_dump_json(), bench_json, s + 1, s, full, True,
+                                  max_attempts))
+    steps, attempt = solved if solved is not None else (None, None)
+    if params.get("attempt_steps"):
+        cap = int(params["attempt_steps"])
+    elif preset.budget_factor is not None and steps is not None:
+        cap = min(full, math.ceil(preset.budget_factor * steps))
+    else:
+        cap = full
     return Track2Scenario(
         preset=preset_name, family=family, bench=bench, variation=variation, source=source,
         instance=instance, distance=round(instance_distance(source, instance), 6),
         demo_seed=demo_seed, episode_seed=episode_seed, attempt_steps=cap,
-        max_attempts=int(params.get("max_attempts", MAX_ATTEMPTS)),
-        demo_frames=bool(params.get("demo_frames", True)), expert_steps=steps, draws=draws)
+        max_attempts=max_attempts, demo_frames=bool(params.get("demo_frames", True)),
+        expert_steps=steps, expert_attempt=attempt, draws=draws)

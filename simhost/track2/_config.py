@@ -38,11 +38,14 @@ class ObservationConfig(_Frozen):
 
     Proprioception (``proprio``) and the contact/force summary (``force``) are always exact.
     Part poses (``parts``) are measurements: every ``period_steps`` control steps the channel
-    measures every part as it was ``latency_steps`` steps earlier, adds a bias constant for
-    the episode (``pose_bias_m``, ``yaw_bias_rad``: a pose estimator's per-object error,
-    which averaging does not remove) and Gaussian noise to its position (``pose_noise_m``
-    per axis) and yaw (``yaw_noise_rad``), and reports the yaw only modulo the part's
-    symmetry when ``symmetric_yaw``. A part the gripper hides from the
+    measures every part as it was ``latency_steps`` steps earlier, through a camera whose
+    calibration to the robot is off by a rigid error constant for the episode (``calib_m``,
+    ``calib_rad``: common to every part, so it cancels in relative poses but not against the
+    robot's own exact proprioception), adds a bias constant for the episode per part
+    (``pose_bias_m``, ``yaw_bias_rad``: a pose estimator's per-object error) — neither
+    averages away — and Gaussian noise to its position (``pose_noise_m`` per axis) and yaw
+    (``yaw_noise_rad``), and reports the yaw only modulo the part's symmetry when
+    ``symmetric_yaw``. A part the gripper hides from the
     camera (``occlusion``: every line of sight from the camera to the part's sample points
     first meets the gripper) keeps its last measurement, and the row's ``age`` grows. All
     noise comes from the episode's seeded generator: the same seed, the same noise.
@@ -60,6 +63,13 @@ class ObservationConfig(_Frozen):
     yaw_bias_rad: float = Field(0.0, ge=0.0, le=0.2,
                                 description="Std. dev. of a part's constant yaw error per "
                                 "episode (rad).")
+    calib_m: float = Field(0.0, ge=0.0, le=0.02,
+                           description="Std. dev. of the camera-to-robot calibration error per "
+                           "episode, common to every part: a translation per horizontal axis "
+                           "(m; half of it vertically).")
+    calib_rad: float = Field(0.0, ge=0.0, le=0.05,
+                             description="Std. dev. of the calibration's yaw error per episode "
+                             "(rad): measured poses are turned by it about the table's origin.")
     period_steps: int = Field(1, ge=1, le=20,
                               description="Parts (and images) are measured every this many "
                               "control steps.")
@@ -104,6 +114,11 @@ class BenchConfig(_Frozen):
     attempt_jitter_rad: float = Field(0.0, ge=0.0, le=0.3,
                                       description="Std. dev. of the per-reset yaw offset (rad); "
                                       "also the jitter of an articulated part's start.")
+    demo_values: Literal["exact", "coarse"] = Field(
+        "exact", description="What a demonstration's goal annotation says of the magnitude "
+        "reached: 'exact' (the depth, turn, fraction, ... as a number) or 'coarse' (what an "
+        "annotator states and the observations cannot show: an opening's fraction, to a "
+        "tenth; every other magnitude is left to the observations).")
 
 
 class VariationConfig(_Frozen):
@@ -123,18 +138,26 @@ class VariationConfig(_Frozen):
 
 
 class SplitConfig(_Frozen):
-    """One split of Track 2: the bench as the agent meets it, and how instances vary."""
+    """One split of Track 2: the bench as the agent meets it, how instances vary, and the
+    step budget of an attempt."""
 
     name: str
     bench: BenchConfig
     variation: VariationConfig
+    budget_factor: float | None = Field(
+        None, gt=1.0, description="An attempt's step budget is this many times the steps the "
+        "feasibility expert needed on the instance (within the family's cap); None: the "
+        "family's cap.")
 
 
 _ROBOT = ObservationConfig(
-    pose_noise_m=0.001, yaw_noise_rad=0.015, pose_bias_m=0.002, yaw_bias_rad=0.025,
-    period_steps=2, latency_steps=1, occlusion=True,
+    pose_noise_m=0.001, yaw_noise_rad=0.015, pose_bias_m=0.001, yaw_bias_rad=0.01,
+    calib_m=0.003, calib_rad=0.005, period_steps=2, latency_steps=1, occlusion=True,
     symmetric_yaw=True, joint_readings=False, goal_vector=False, rgbd=True,
 )
+BUDGET_FACTOR = 2.0
+"""Official splits: an attempt may take twice the steps a system that knows the instance's
+parameters needs through the same observation channel (the feasibility expert)."""
 _TIGHT = Tolerances(rotation_rad=0.05, opening_frac=0.05, assembly_xy_m=0.005,
                     assembly_yaw_rad=0.08, pull_m=0.012)
 
@@ -142,19 +165,24 @@ SPLITS: dict[str, SplitConfig] = {
     "standard": SplitConfig(
         name="standard",
         bench=BenchConfig(observation=_ROBOT, tolerances=_TIGHT, grip_slip=True,
-                          attempt_jitter_m=0.003, attempt_jitter_rad=0.04),
+                          attempt_jitter_m=0.003, attempt_jitter_rad=0.04,
+                          demo_values="coarse"),
         variation=VariationConfig(difficulty=0.4, source_spread=0.4, switch_probability=0.5,
                                   wide=True, goal_from_source=True, mechanism_switch=0.3),
+        budget_factor=BUDGET_FACTOR,
     ),
     "challenge": SplitConfig(
         name="challenge",
         bench=BenchConfig(
             observation=_ROBOT.model_copy(update={
-                "pose_noise_m": 0.0015, "yaw_noise_rad": 0.025, "pose_bias_m": 0.0025,
-                "yaw_bias_rad": 0.035, "period_steps": 3, "latency_steps": 2}),
-            tolerances=_TIGHT, grip_slip=True, attempt_jitter_m=0.004, attempt_jitter_rad=0.06),
+                "pose_noise_m": 0.0015, "yaw_noise_rad": 0.025, "pose_bias_m": 0.0015,
+                "yaw_bias_rad": 0.017, "calib_m": 0.004, "calib_rad": 0.008,
+                "period_steps": 3, "latency_steps": 2}),
+            tolerances=_TIGHT, grip_slip=True, attempt_jitter_m=0.004, attempt_jitter_rad=0.06,
+            demo_values="coarse"),
         variation=VariationConfig(difficulty=0.7, source_spread=0.5, switch_probability=0.6,
                                   wide=True, goal_from_source=True, mechanism_switch=0.45),
+        budget_factor=BUDGET_FACTOR,
     ),
     "dev": SplitConfig(
         name="dev",

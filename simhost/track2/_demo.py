@@ -7,6 +7,7 @@ ones its robot made through the split's observation channel.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -28,19 +29,39 @@ from ._config import BenchConfig
 from ._env import BenchEnv
 from ._errors import DemoPacketError
 from ._expert import ScriptedExpert
-from ._family import GOAL_NAMES
+from ._family import GOAL_NAMES, action, move
 from ._packet import OBS_KEYS
 from ._params import InstanceParams
 
+POST_STEPS = 24
+"""After the goal an official split's demonstration (annotations without magnitudes) goes on
+this many steps (1.2 s): the demonstrator draws the hand back towards ``DRAW_BACK_Z`` (a
+rise of 10-20 cm takes most of it; it holds still if it gets there), so the observations
+show the released parts at rest past the hand (dev's packet ends on the goal)."""
+DRAW_BACK_Z = 0.26
 BOUNDARY_RESOLUTION = 10
 """Key-stage boundaries are rounded to multiples of this many observations (0.5 s)."""
 GOAL_EVENTS = ("inserted", "turned", "placed", "opened", "closed", "pressed", "aligned")
+COARSE_EVENTS = ("opened", "closed")
+"""Goal events whose magnitude a coarse annotation still states (to a tenth)."""
 _TEXT = {
     "proprio": "TCP x, y, z (m), yaw (rad), finger opening (m), left/right finger contact",
     "parts": "per part row: present, x, y, z, qw, qx, qy, qz, joint, age (s)",
     "force": "normal contact force on left finger, right finger, palm; net force x, y, z (N)",
     "goal": "[stated, g1, g2, g3]: the task's stated goal parameters (dev split only)",
 }
+
+
+def goal_value(event: str, final: float | None, values: str) -> float | None:
+    """The ``value`` an annotation carries: the magnitude the demonstration reached on its
+    goal event (``values == "exact"``); with ``"coarse"`` only an opening's fraction, to a
+    tenth (an annotator's "about 70 % open": the joint's range is not in the observations),
+    and nothing else (a depth, a turn, ... is read off the demonstration's observations)."""
+    if event not in GOAL_EVENTS or final is None:
+        return None
+    if values == "exact":
+        return float(final)
+    return round(float(final), 1) + 0.0 if event in COARSE_EVENTS else None
 
 
 def _spec(env: BenchEnv, key: str) -> ArraySpec:
@@ -92,6 +113,17 @@ def coarse_stages(stages: list[int], names: list[str], resolution: int) -> list[
     return out
 
 
+def _draw_back(env: BenchEnv, grip: float) -> Iterator[np.ndarray]:
+    """After the goal: straight up to ``DRAW_BACK_Z`` (the grip command kept: a tool stays
+    in the hand), then still; the camera sees the result past the hand."""
+    ee = env.sim.ee()
+    width = (grip + 1.0) / 2.0 * WIDTH_MAX
+    yield from move(env, np.array([ee[0], ee[1], DRAW_BACK_Z]), float(ee[3]), width, tol=0.004,
+                    max_steps=POST_STEPS)
+    while True:
+        yield action(np.zeros(3), 0.0, width)
+
+
 def write_demo_packet(
     folder: str | Path,
     params: InstanceParams,
@@ -135,21 +167,37 @@ def write_demo_packet(
         shots: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         if frames:
             shots[0] = env._render(depth=True)[:2]
-        done = False
+        done, tail, success, final = False, None, False, None
         while not done:
-            action = expert()
+            if tail is None:
+                action = expert()
+            else:
+                action = next(tail)
             obs, _, term, trunc, info = env.step(action)
             k = len(actions) + 1
             actions.append(np.asarray(action, dtype=np.float32))
-            stage_idx.append(names.index(info["stage"]) if info["stage"] in names else -1)
+            if tail is None:
+                stage_idx.append(names.index(info["stage"]) if info["stage"] in names else -1)
+            else:  # drawing back belongs to the last key stage
+                stage_idx.append(next((s for s in reversed(stage_idx) if s >= 0), -1))
             for key in keys:
                 observations[key].append(obs[key])
             events += [(k, e) for e in info["events"]]
-            done = term or trunc
+            if tail is None and (term or trunc):
+                success, final = bool(info["success"]), info["value"]
+                if not success or env.config.demo_values == "exact":
+                    done = True  # dev: today's packet, ending on the goal
+                else:  # the demonstrator draws the hand back (then holds still); that
+                    # belongs to the last key stage, the last observation shows it done
+                    stage_idx[-1] = next((s for s in reversed(stage_idx) if s >= 0), -1)
+                    tail, left = _draw_back(env, float(action[4])), POST_STEPS
+            elif tail is not None:
+                left -= 1
+                done = left <= 0
+                if done:
+                    stage_idx[-1] = -1
             if frames and (k % frame_every == 0 or done):
                 shots[k] = env._render(depth=True)[:2]
-        success = bool(info["success"])
-        final = info["value"]
         space = {k: _spec(env, k) for k in keys}
         size = env.image_size
     finally:
@@ -182,8 +230,7 @@ def write_demo_packet(
         key_stages=coarse_stages(stage_idx, names, BOUNDARY_RESOLUTION),
         boundary_resolution=BOUNDARY_RESOLUTION,
         events=[Annotation(step=k, event=e["event"], part=e["part"],
-                           value=float(final) if e["event"] in GOAL_EVENTS and final is not None
-                           else None)
+                           value=goal_value(e["event"], final, env.config.demo_values))
                 for k, e in events],
         frames=frame_spec,
     )

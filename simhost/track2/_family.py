@@ -288,6 +288,39 @@ def pick(
     yield from move(env, np.array([ee[0], ee[1], lift_z]), yaw, 0.0, tol=0.004)
 
 
+def descend(env: BenchEnv, goal: np.ndarray, yaw: float, width: float, *,
+            speed: float = 0.6) -> Plan:
+    """Come straight down to ``goal``; stop early when the hand stops going down (3 steps
+    with less than 0.5 mm), i.e. something is in the way."""
+    stuck = 0
+    for _ in range(60):
+        before = env.sim.ee()[2]
+        yield from move(env, goal, yaw, width, speed=speed, max_steps=1)
+        ee = env.sim.ee()
+        if np.linalg.norm(ee[:3] - goal) < 0.002:
+            return
+        stuck = stuck + 1 if ee[2] > before - 0.0005 else 0
+        if stuck >= 3:
+            return
+
+
+def reach_down(env: BenchEnv, goal: np.ndarray, yaw: float, width: float, *,
+               above: float = 0.05) -> Plan:
+    """Come down over ``goal`` to it; when something stops the fingers above it (an edge a
+    calibration error put under a finger), lift, shift by 4 then 8 mm along and across the
+    hand's fingers and come down again: contact decides where perception cannot."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    along, across = np.array([c, s, 0.0]), np.array([-s, c, 0.0])
+    offsets = [np.zeros(3)] + [k * d for k in (0.004, 0.008) for d in (along, -along, across,
+                                                                         -across)]
+    for k, off in enumerate(offsets):
+        at = np.asarray(goal, dtype=float) + off
+        yield from move(env, at + [0.0, 0.0, above if k == 0 else 0.015], yaw, width, tol=0.004)
+        yield from descend(env, at, yaw, width)
+        if env.sim.ee()[2] < goal[2] + 0.003:
+            return
+
+
 def servo(
     env: BenchEnv,
     error: Callable[[], tuple[np.ndarray, float]],

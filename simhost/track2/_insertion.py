@@ -136,6 +136,12 @@ class InsertionTask(FamilyTask):
     def bottom(self, eye: Any = None) -> np.ndarray:
         return (eye or self.s).point(self.peg, (0.0, 0.0, -self.h / 2))
 
+    def height(self, eye: Any = None) -> float:
+        """The peg bottom's height above the hole's floor: measured against the hole's own
+        measured pose, so that an error common to both (the camera's calibration) cancels."""
+        e = eye or self.s
+        return float(self.bottom(e)[2] - e.pos(self.hole)[2])
+
     def in_hole(self, xy: np.ndarray, margin: float = 0.002) -> bool:
         local = rot2(-self.hole_yaw(), xy - self.hole_xy())
         if self.shape in ("round", "hex"):
@@ -238,7 +244,7 @@ class InsertionTask(FamilyTask):
         yield from hold(env, 4, 0.0)  # let the estimates settle while still
         yield from self._align(env, lift)
         yield from self._descend(env)
-        if self.bottom(e)[2] > self.depth - 0.002:  # stuck on the rim: search around
+        if self.height(e) > self.depth - 0.002:  # stuck on the rim: search around
             yield from self._search(env)
         yield from grip(env, open_w, 6)
         ee = env.sim.ee()
@@ -263,7 +269,7 @@ class InsertionTask(FamilyTask):
         e = self.e
         ee = env.sim.ee()
         centre = ee[:2].copy()
-        hover = ee[2] - (self.bottom(e)[2] - (self.depth + 0.004))
+        hover = ee[2] - (self.height(e) - (self.depth + 0.004))
         spacing = 0.8 * (CHAMFER + self.c / 2)
         for off in spiral(spacing, 4):
             yield from move(env, np.array([*(centre + off), hover]), ee[3], 0.0, tol=0.0015,
@@ -272,7 +278,7 @@ class InsertionTask(FamilyTask):
                 now = env.sim.ee()[2]
                 yield from move(env, np.array([*(centre + off), now - 0.005]), ee[3], 0.0,
                                 max_steps=1)
-            if self.bottom(e)[2] < self.depth - 0.003:
+            if self.height(e) < self.depth - 0.003:
                 yield from self._descend(env)
                 return
             yield from move(env, np.array([*(centre + off), hover]), ee[3], 0.0, max_steps=2)
@@ -282,8 +288,8 @@ class InsertionTask(FamilyTask):
         e = self.e
         stuck = 0
         for _ in range(60):
-            ee, bot = env.sim.ee(), self.bottom(e)
-            if bot[2] < 0.004 or self.depth - bot[2] > self.need + 0.004:
+            ee, z = env.sim.ee(), self.height(e)
+            if z < 0.004 or self.depth - z > self.need + 0.004:
                 return
             prev = ee[2]
             yield from move(env, np.array([*env.control_target[:2], ee[2] - 0.004]), ee[3], 0.0,

@@ -4,8 +4,10 @@
 ``parts`` observation under an :class:`~simhost.track2.ObservationConfig`:
 
 - every ``period_steps`` control steps it *measures*: each row shows the part as it was
-  ``latency_steps`` steps earlier, its position plus the part's bias (drawn once per
-  episode) plus Gaussian noise per axis, its yaw likewise and, when ``symmetric_yaw``,
+  ``latency_steps`` steps earlier, seen through the episode's calibration error (a yaw about
+  the table's origin and a translation, common to every part), plus the part's own bias
+  (both drawn once per episode) plus Gaussian noise per axis, its yaw likewise and, when
+  ``symmetric_yaw``,
   reported modulo the part's symmetry period (the tilt is kept); the ``joint`` column is
   the true joint value only with ``joint_readings``;
 - a row whose part the gripper hides from the camera at that time (``occlusion``: every
@@ -96,6 +98,8 @@ class PartsChannel:
         self._step = 0
         self._bias_p = np.zeros((self.n, 3))
         self._bias_y = np.zeros(self.n)
+        self._calib_t = np.zeros(3)
+        self._calib_yaw = 0.0
 
     # ------------------------------------------------------------------ public
     def reset(self, rng: np.random.Generator, bias_rng: np.random.Generator | None = None) -> None:
@@ -104,6 +108,9 @@ class PartsChannel:
         cfg, src = self.cfg, bias_rng or rng
         self._bias_p = src.normal(0.0, 1.0, (self.n, 3)) * cfg.pose_bias_m * [1.0, 1.0, 0.5]
         self._bias_y = src.normal(0.0, 1.0, self.n) * cfg.yaw_bias_rad
+        if cfg.calib_m > 0 or cfg.calib_rad > 0:  # drawn only when used: dev draws as before
+            self._calib_t = src.normal(0.0, 1.0, 3) * cfg.calib_m * [1.0, 1.0, 0.5]
+            self._calib_yaw = float(src.normal(0.0, 1.0)) * cfg.calib_rad
         self._history.clear()
         self._step = 0
         truth = self.task.parts()
@@ -139,17 +146,21 @@ class PartsChannel:
         cfg = self.cfg
         noise_p = rng.normal(0.0, 1.0, (self.n, 3)) * cfg.pose_noise_m + self._bias_p
         noise_y = rng.normal(0.0, 1.0, self.n) * cfg.yaw_noise_rad + self._bias_y
+        c, s = math.cos(self._calib_yaw), math.sin(self._calib_yaw)
         for i in range(self.n):
             row = truth[i]
             if row[0] < 0.5 or hidden[i]:
                 continue
             q = row[4:8]
-            yaw = yaw_of(q) + noise_y[i]
+            x, y, z = row[1:4]
+            seen = np.array([c * x - s * y, s * x + c * y, z]) + self._calib_t
+            yaw = yaw_of(q) + self._calib_yaw + noise_y[i]
             if cfg.symmetric_yaw:
                 yaw = canonical_yaw(yaw, self._periods[i])
-            if cfg.yaw_noise_rad > 0 or cfg.yaw_bias_rad > 0 or cfg.symmetric_yaw:
+            if cfg.yaw_noise_rad > 0 or cfg.yaw_bias_rad > 0 or cfg.symmetric_yaw \
+                    or self._calib_yaw:
                 q = with_yaw(q, yaw)
-            self.rows[i, :9] = (1.0, *(row[1:4] + noise_p[i]), *q,
+            self.rows[i, :9] = (1.0, *(seen + noise_p[i]), *q,
                                 row[8] if cfg.joint_readings else 0.0)
             self._measured_at[i] = self._step
         self._age()

@@ -39,6 +39,7 @@ from ._family import (
     idle,
     move,
     nearest_yaw,
+    reach_down,
     truth_doc,
     var,
 )
@@ -273,8 +274,7 @@ class OpeningTask(FamilyTask):
             pos, yaw = self.grasp_pose(q0, frame)
             _, yaw_end = self.grasp_pose(q_goal, frame)
             yaw0 = nearest_yaw(yaw, math.pi, -(yaw_end - yaw) / 2)
-            yield from move(env, pos + [0, 0, 0.05], yaw0, open_w, tol=0.004)
-            yield from move(env, pos, yaw0, open_w, speed=0.6)
+            yield from reach_down(env, pos, yaw0, open_w)
             yield from grip(env, 0.0, 6)
             for _ in range(150):
                 q = self.q_seen(e)
@@ -282,9 +282,13 @@ class OpeningTask(FamilyTask):
                 if abs(err) < self.tolerance * self.range / 4:
                     break
                 q_next = q + float(np.clip(err, -lim, lim))
+                # move the hand by the handle's predicted displacement, not to an absolute
+                # pose: a calibration error common to the mechanism's parts cancels
                 nxt, yaw_n = self.grasp_pose(q_next, frame)
-                yaw_cmd = yaw0 + wrap(yaw_n - yaw)
-                yield from move(env, nxt, yaw_cmd, 0.0, max_steps=1)
+                cur, yaw_c = self.grasp_pose(q, frame)
+                ee = env.sim.ee()
+                yield from move(env, ee[:3] + (nxt - cur), ee[3] + wrap(yaw_n - yaw_c), 0.0,
+                                max_steps=1)
             yield from hold(env, 3, 0.0)
             yield from grip(env, open_w, 6)
             ee = env.sim.ee()

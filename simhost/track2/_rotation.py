@@ -2,7 +2,8 @@
 
 Parts: ``knob`` (hinged about z), ``base`` (fixed post). Shapes: ``knob`` a short thick bar,
 ``valve`` a long thin bar over a hub, ``nut`` a hexagonal prism on a bolt. A bar is grasped
-across its long sides (symmetry pi), the nut across flats (symmetry pi/3). The hinge has
+across its long sides (grasp symmetry pi), the nut across flats (pi/3); a pointer painted on
+top shows the handle's angle over a full turn, so its reported yaw has no symmetry. The hinge has
 damping and dry friction, so the handle stays where it is left, and a stop just behind the
 start: it turns only in its ``direction`` (``ccw`` or ``cw``, seen from above).
 
@@ -104,6 +105,13 @@ class RotationTask(FamilyTask):
                 f'<geom class="fixture" type="cylinder" pos="0 0 {bottom / 2:.5f}" '
                 f'size="0.009 {bottom / 2:.5f}"/>'
             )
+        # A pointer painted on top (no collision): the handle's pose shows its angle over a
+        # full turn, although its shape repeats every pi (bars) or pi/3 (the nut).
+        handle += (
+            f'<geom type="box" pos="{0.55 * hx:.5f} 0 {hz + 0.0006:.5f}" '
+            f'size="{0.4 * hx:.5f} 0.0025 0.0006" contype="0" conaffinity="0" mass="0.0001" '
+            f'rgba="0.95 0.95 0.2 1"/>'
+        )
         return Scene(
             assets=assets,
             bodies=f"""
@@ -148,7 +156,7 @@ class RotationTask(FamilyTask):
         return self.pad([self.row(self.knob, self.angle()), self.row(self.base)])
 
     def symmetry(self) -> tuple[float, ...]:
-        return (self.period, 2 * math.pi)
+        return (2 * math.pi, 2 * math.pi)  # the pointer shows the angle over a full turn
 
     def yaw_priors(self) -> dict[int, float]:
         return {0: self.p.f("init_angle")}

@@ -79,8 +79,9 @@ def main() -> None:
 
     import ray
 
-    from orchestrator._campaign import CampaignOptions, run_campaign, store_path
+    from orchestrator._campaign import CampaignOptions, store_path
     from orchestrator._docker import DockerRuntime, docker_client
+    from orchestrator._driver import run_campaign
     from orchestrator._images import build_agent_base, build_folder
     from orchestrator._seeds import load_secret, seed_list
     from orchestrator._store import ResultsStore

@@ -150,3 +150,23 @@ def test_losing_the_whole_ray_stops_the_campaign_cleanly(docker_engine: Any,
     assert db.execute("SELECT COUNT(*) FROM attempts").fetchone() == (0,)
     failed = [e for e in _events(folder, name) if e["event"] == "failed"]
     assert len(failed) == 1 and failed[0]["reason"] == "cluster"
+
+
+def test_an_unreachable_cluster_is_one_line_and_exit_6(ray_tmp: Path) -> None:  # noqa: F811
+    """``--address`` of a port where no Ray head listens: one line naming the address and
+    how to start a head, exit 6, within seconds (Ray alone retries for minutes), and no
+    episode run."""
+    import socket
+
+    with socket.socket() as s:  # a free port, closed again: nothing listens there
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    folder = short_dir("eagc-ua-")
+    path = write_campaign(folder, "unreachable", WAITING, standard=1, challenge=1)
+    proc = _driver(path, ray_tmp, "--address", f"127.0.0.1:{port}")
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 6, err[-2000:]
+    lines = [ln for ln in err.splitlines() if ln.startswith("error:")]
+    assert len(lines) == 1 and f"no Ray cluster answers at 127.0.0.1:{port}" in lines[0]
+    assert "ray start --head" in lines[0] and "Traceback" not in err
+    assert _rows(folder, "unreachable") == []

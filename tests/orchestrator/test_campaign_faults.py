@@ -41,12 +41,15 @@ def ray_tmp() -> Iterator[Path]:
 
 
 def _driver(path: Path, ray_tmp: Path, *args: str) -> subprocess.Popen[str]:
-    """A driver in a process group of its own (as a shell's foreground job would be)."""
+    """A driver in a process group of its own (as a shell's foreground job would be), with
+    SIGINT at its default whatever this test process inherited (a shell starts background
+    jobs with SIGINT ignored, and an ignored signal stays ignored across exec)."""
     env = {**os.environ, "RAY_TMPDIR": str(ray_tmp), "RAY_USAGE_STATS_ENABLED": "0"}
     return subprocess.Popen(
         [sys.executable, "-m", "orchestrator._campaign_cli", "run", str(path), "--no-progress",
          *args], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        start_new_session=True)
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # noqa: PLW1509
 
 
 def _events(folder: Path, name: str) -> list[dict[str, Any]]:

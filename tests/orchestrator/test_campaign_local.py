@@ -28,8 +28,9 @@ from test_campaign_helpers import (
 )
 from typer.testing import CliRunner
 
-from orchestrator._campaign import CampaignOptions, load_campaign, run_campaign, store_path
+from orchestrator._campaign import CampaignOptions, load_campaign, store_path
 from orchestrator._campaign_cli import campaign_app
+from orchestrator._driver import run_campaign
 from orchestrator._leaderboard import build_leaderboard
 from orchestrator._metrics import CampaignMetrics
 from orchestrator._seeds import load_secret, seed_list

@@ -58,11 +58,18 @@ def test_families_balance_by_index_and_scenarios_are_deterministic() -> None:
 
 
 def test_hidden_instances_are_feasible_through_the_observation_channel() -> None:
+    from simhost.track2 import family_step_cap
+
     for i in range(5):
         s = Track2Scenario.model_validate(make(300 + i, "challenge", index=i).params)
         assert s.expert_steps is not None and s.expert_steps <= s.attempt_steps, s.family
+        assert s.expert_attempt is not None and 1 <= s.expert_attempt <= s.max_attempts
         assert 1 <= s.draws <= 8
         assert not s.bench.observation.joint_readings and not s.bench.observation.goal_vector
+        # the budget: twice what the feasibility expert needed, within the family's cap
+        assert s.attempt_steps == min(family_step_cap(s.family), 2 * s.expert_steps)
+        dev = Track2Scenario.model_validate(make(300 + i, "dev", index=i).params)
+        assert dev.attempt_steps == family_step_cap(dev.family)  # dev: today's caps
 
 
 def test_official_goals_come_from_the_demonstration() -> None:

@@ -9,6 +9,7 @@ from there.
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -100,8 +101,11 @@ def test_agent_runs_with_only_the_base_dependencies(tmp_path, host_episode):
             shutil.copytree(ROOT / pkg, src / pkg, ignore=shutil.ignore_patterns("__pycache__"))
     dist = tmp_path / "dist"
     pip = [sys.executable, "-m", "pip", "--disable-pip-version-check", "-q"]
+    # Without PYTHONPATH: pip would take a work tree on it (its eagc.egg-info) for eagc
+    # already installed, and leave the fresh venv without it.
+    clean = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     subprocess.run([*pip, "wheel", "--no-deps", "--no-build-isolation", "--no-index",
-                    "-w", str(dist), str(src)], check=True, capture_output=True)
+                    "-w", str(dist), str(src)], check=True, capture_output=True, env=clean)
     (wheel,) = dist.glob("eagc-*.whl")
     with zipfile.ZipFile(wheel) as z:
         meta = Parser().parsestr(z.read(next(n for n in z.namelist()
@@ -115,7 +119,7 @@ def test_agent_runs_with_only_the_base_dependencies(tmp_path, host_episode):
     venv.create(env_dir, with_pip=False, system_site_packages=False, symlinks=True)
     python = env_dir / "bin" / "python"
     subprocess.run([*pip, "--python", str(python), "install", "--no-deps", "--no-index",
-                    str(wheel)], check=True, capture_output=True)
+                    str(wheel)], check=True, capture_output=True, env=clean)
     site = Path(subprocess.run(
         [str(python), "-I", "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
         check=True, capture_output=True, text=True,

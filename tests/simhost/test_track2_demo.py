@@ -62,9 +62,15 @@ def test_round_trip(family: str, split: str, tmp_path: Path) -> None:
     assert any(e.event == "grasped" for e in man.events)
     assert not any(e.event == "dropped" for e in man.events)
     assert all(0 < e.step <= t for e in man.events)
-    goal = [e for e in man.events if e.value is not None]
-    assert goal and all(e.event in ("inserted", "turned", "placed", "opened", "closed",
-                                    "pressed", "aligned") for e in goal)
+    goals = ("inserted", "turned", "placed", "opened", "closed", "pressed", "aligned")
+    assert any(e.event in goals for e in man.events), "the goal event is annotated"
+    valued = [e for e in man.events if e.value is not None]
+    if split == "dev":  # today's level: the magnitude reached, as a number
+        assert valued and all(e.event in goals for e in valued)
+    else:  # what an annotator states: an opening's fraction to a tenth, nothing else
+        assert all(e.event in ("opened", "closed") for e in valued)
+        assert all(round(e.value, 1) == e.value for e in valued)
+        assert bool(valued) == (family == "opening")
     raw = (tmp_path / "p" / "manifest.json").read_text()
     secrets = ["source", "friction", "seed", "progress", "reward"]
     if split != "dev":
@@ -72,6 +78,27 @@ def test_round_trip(family: str, split: str, tmp_path: Path) -> None:
     for secret in secrets:
         assert secret not in raw, secret
     assert DemoManifest.model_validate_json(raw) == man  # what an agent reads
+
+
+@pytest.mark.parametrize("split", ["dev", "standard"])
+def test_official_demo_shows_the_result_at_rest(split: str, tmp_path: Path) -> None:
+    """Without a magnitude in the annotation, the official packet goes on after the goal: the
+    hand rises, so the released parts are seen past it at rest; dev's packet ends on it."""
+    from simhost.track2._demo import DRAW_BACK_Z, GOAL_EVENTS, POST_STEPS
+
+    params = sample_instance("rotation", 30)
+    man = write_demo_packet(tmp_path / "p", params, seed=0, config=split_config(split).bench)
+    hand = read_demo_packet(tmp_path / "p").arrays["obs_proprio"]
+    goal = max(e.step for e in man.events if e.event in GOAL_EVENTS)
+    if split == "dev":  # ends on success, a few steps after the goal event (a release)
+        assert man.num_steps - goal < POST_STEPS
+        return
+    assert man.num_steps >= goal + POST_STEPS
+    assert hand[-1, 2] > DRAW_BACK_Z - 0.02 > hand[goal, 2] + 0.05, "the hand drew back"
+    assert np.all(np.diff(hand[-POST_STEPS:, 2]) > -0.001), "up, never down"
+    parts = read_demo_packet(tmp_path / "p").arrays["obs_parts"]
+    assert np.ptp(parts[-8:, 0, 1:4], axis=0).max() < 0.01, "the knob at rest"
+    assert parts[-1, 0, 9] < 0.2, "and freshly measured: the hand no longer hides it"
 
 
 def test_coarse_stage_boundaries_are_rounded_but_ordered() -> None:
@@ -190,7 +217,7 @@ def test_broken_packets_give_clear_errors(packet: Path, tmp_path: Path) -> None:
         read_demo_packet(bad)
 
 
-def test_attempt_vs_demo_picture(packet: Path) -> None:
+def test_attempt_vs_demo_picture(packet: Path, tmp_path: Path) -> None:
     pk = read_demo_packet(packet)
     env = BenchEnv(sample_instance("insertion", 40, source=sample_instance("insertion", 4)),
                    render_mode="rgb_array", image_size=(120, 160))
@@ -203,7 +230,7 @@ def test_attempt_vs_demo_picture(packet: Path) -> None:
             frames.append(env.render())
         if terminated or truncated:
             break
-    out = Path("/tmp/track2_attempt_vs_demo.png")
+    out = tmp_path / "attempt_vs_demo.png"
     png = render_attempt_vs_demo(pk, np.array(path), attempt_frames=frames, path=out)
     assert out.read_bytes() == png
     img = decode_png(png)

@@ -240,17 +240,43 @@ def test_official_channel_is_noisy_biased_delayed_and_slower() -> None:
 
 
 def test_symmetric_parts_report_yaw_modulo_their_symmetry() -> None:
-    params = default_source("rotation").model_copy(update={
-        "geometry": {**default_source("rotation").geometry, "kind": "nut"},
-        "pose": {**default_source("rotation").pose, "init_angle": 1.3}})
+    src = default_source("insertion")
+    params = src.model_copy(update={"geometry": {**src.geometry, "shape": "hex"},
+                                    "pose": {**src.pose, "peg_yaw": 0.7}})
     env = BenchEnv(params, split="standard")
     obs, _ = env.reset(seed=0)
     _, yaw = _measured(env, obs, 0)
     period = np.pi / 3
     assert -period / 2 - 0.1 <= yaw <= period / 2 + 0.1
-    assert abs(canonical_yaw(1.3, period) - yaw) < 0.15
+    assert abs(canonical_yaw(0.7, period) - yaw) < 0.15
     dev = BenchEnv(params)
-    assert abs(_measured(dev, dev.reset(seed=0)[0], 0)[1] - 1.3) < 1e-6
+    assert abs(_measured(dev, dev.reset(seed=0)[0], 0)[1] - 0.7) < 1e-6
+
+
+def test_a_handle_with_a_pointer_shows_its_angle_over_a_full_turn() -> None:
+    src = default_source("rotation")
+    for kind in ("knob", "valve", "nut"):
+        params = src.model_copy(update={"geometry": {**src.geometry, "kind": kind},
+                                        "pose": {**src.pose, "init_angle": 1.3}})
+        env = BenchEnv(params, split="standard")
+        _, yaw = _measured(env, env.reset(seed=0)[0], 0)
+        assert abs(yaw - 1.3) < 0.15, kind  # not folded by the handle's shape
+
+
+def test_the_calibration_error_is_common_to_every_part() -> None:
+    env = BenchEnv(default_source("insertion"), split="standard")
+    obs, _ = env.reset(seed=1, options={"bias_seed": 3})
+    truth = env.task.parts()
+    seen, rel = [], []
+    for _ in range(100):
+        obs, *_ = env.step(np.zeros(5, np.float32))
+        err = obs["parts"][:2, 1:3].astype(float) - truth[:2, 1:3]
+        seen.append(err)
+        rel.append(err[0] - err[1])
+    seen_mean, rel_mean = np.mean(seen, axis=0), np.mean(rel, axis=0)
+    # the same episode error on both parts, which a relative measurement cancels
+    assert np.linalg.norm(seen_mean[0]) > 0.002 and np.linalg.norm(seen_mean[1]) > 0.002
+    assert np.linalg.norm(rel_mean) < 0.5 * min(np.linalg.norm(seen_mean, axis=1))
 
 
 def test_a_part_the_gripper_hides_keeps_its_last_measurement() -> None:

@@ -1,0 +1,9 @@
+"""``PluginError``: the root of every error the plugins package raises (STYLE §5)."""
+
+from __future__ import annotations
+
+from schemas import EagcError
+
+
+class PluginError(EagcError, RuntimeError):
+    """Raised when a track cannot be found, loaded or used (the root of plugins' errors)."""

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from plugins._registry import PluginError
+from plugins._errors import PluginError
 from plugins.track1._budgets import execution_steps, exploration_steps
 from plugins.track1._queries import plan_queries
 from plugins.track1._tasks import make_task

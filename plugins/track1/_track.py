@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from plugins._base import Column, FileRule, Scenario, ScoringInput, TrackPlugin
-from plugins._registry import PluginError
+from plugins._errors import PluginError
 from plugins.track1 import _score
 from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, Track1Episode
 from plugins.track1._scenario import build_scenario

@@ -255,13 +255,13 @@ class Grid:
         return dist, lo
 
 
-def steer(pose: tuple[float, float, float], grid: Grid, path: list[tuple[float, float]]
-          ) -> tuple[list[float], int]:
+def steer(pose: tuple[float, float, float], grid: Grid, path: list[tuple[float, float]],
+          horizon: int = 16) -> tuple[list[float], int]:
     """The move ``[forward, turn]`` toward the farthest path point in straight sight (up to
-    1.5 m ahead), and how many path points it passes."""
+    ``horizon`` points, 0.1 m apart, ahead), and how many path points it passes."""
     x, y, yaw = pose
     target, used = path[0], 0
-    for k, p in enumerate(path[:16]):
+    for k, p in enumerate(path[:horizon]):
         if grid.line_free((x, y), p) or k == 0:
             target, used = p, k
         else:

@@ -1,21 +1,22 @@
 """The heuristic planner's world model: rooms, doors, connectivity, containers, objects, tools.
 
-Everything comes from observations: a detection's world position is the robot's pose plus
-its relative position; its room is the robot's room when the line of sight crosses no
-doorway (walls block sight, so it must be in the same room), else the room behind that
-doorway. A door belongs to the rooms it is seen from directly, and to the two rooms the
-robot passes between when it crosses it; two such rooms make a connection.
+Everything comes from observations: a detection's world position is the robot's odometry
+pose plus its relative position; its room is the room the robot is in (read from the sign
+when it entered) when the line of sight crosses no doorway (walls block sight, so it must be
+in the same room), else the room behind that doorway. A door belongs to the rooms it is seen
+from directly, and to the two rooms the robot passes between when it crosses it; two such
+rooms make a connection. A thing keeps the category and colour of its first sighting and
+the position and state of its latest.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
 from collections import Counter
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
+
+from simhost.agent import OutputFiles
 
 AFFORDANCES = {"sponge": "wipe", "cloth": "wipe", "knife": "cut", "scissors": "cut",
                "watering_can": "water", "jug": "water"}
@@ -185,10 +186,28 @@ class WorldModel:
                             if not t.gone and t.category in AFFORDANCES],
         }
 
-    def write(self, folder: Path) -> None:
-        tmp = folder / ".world_model.json.tmp"
-        tmp.write_text(json.dumps(self.document()))
-        os.replace(tmp, folder / "world_model.json")
+    def write(self, files: OutputFiles) -> None:
+        files.write(self.document(), "world_model.json")
+
+    # ------------------------------------------------------------------ descriptions
+    def on_what(self, t: Thing) -> Thing | None:
+        """The furniture or container an item was seen on or in (the nearest, within 0.8 m)."""
+        return min((f for f in self.of_kind("furniture", "container")
+                    if math.dist(f.position, t.position) < 0.8),
+                   key=lambda f: math.dist(f.position, t.position), default=None)
+
+    def matches(self, ref: dict[str, Any]) -> list[Thing]:
+        """Things that fit a description (category, colour, room type, what it is on)."""
+        out = []
+        for t in self.find(ref["category"], ref.get("colour")):
+            if ref.get("room") and self.rooms.get(self.room_of(t)) != ref["room"]:
+                continue
+            if ref.get("on"):
+                base = self.on_what(t)
+                if base is None or base.category != ref["on"]:
+                    continue
+            out.append(t)
+        return out
 
     def answer(self, query: dict[str, Any]) -> Any:
         """The answer to one of the host's queries, from the model (None: no idea)."""
@@ -197,8 +216,18 @@ class WorldModel:
             return sorted(t.id for t in self.of_kind("tool")
                           if not t.gone and AFFORDANCES.get(t.category) == query["affordance"])
         if kind == "room_neighbours":
-            return self.neighbours(query["room"])
-        subject = self.things.get(query.get("object", query.get("door", query.get("container"))))
-        if subject is None:
-            return None
-        return self.room_of(subject) if kind == "object_room" else subject.state
+            return self.neighbours(query["room"]) if query["room"] in self.rooms else None
+        if kind == "object_count":
+            return len(self.find(query["category"])) or None
+        if kind == "object_room":
+            found = self.things.get(query.get("object", -1)) or next(
+                iter(self.find(query["category"], query["colour"])), None)
+            return None if found is None else self.room_of(found)
+        if kind == "door_state":
+            want = sorted(query["rooms"])
+            door = self.things.get(query.get("door", -1)) or next(
+                (self.things[d] for a, b, d in self.connections() if [a, b] == want), None)
+            return None if door is None else door.state
+        box = self.things.get(query.get("container", -1)) or next(
+            (t for t in self.find(query["category"]) if self.room_of(t) == query["room"]), None)
+        return None if box is None else box.state

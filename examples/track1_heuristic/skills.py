@@ -76,6 +76,16 @@ def reach_radius(t: Thing) -> float:
     return 0.5 * math.hypot(w, d) + 0.45
 
 
+def face(pose: Pose, point: tuple[float, float], tolerance: float = 0.6) -> Action | None:
+    """A turn toward a point when it is more than ``tolerance`` (radians) off the heading,
+    else None (the detector sees 60 degrees either side of ahead)."""
+    want = math.atan2(point[1] - pose[1], point[0] - pose[0])
+    err = math.remainder(want - pose[2], math.tau)
+    if abs(err) <= tolerance:
+        return None
+    return {"primitive": "move", "move": [0.0, max(-1.0, min(1.0, err / (math.pi / 4)))]}
+
+
 def escape_move(pose: Pose, clear: tuple[float, float]) -> list[float]:
     """A short move toward a clear point: forward if it is ahead, backward if behind."""
     dx, dy = clear[0] - pose[0], clear[1] - pose[1]
@@ -101,6 +111,8 @@ class Navigator:
         self.backoffs = 0
         self.door: DoorOpener | None = None
         self.skip_doors: set[int] = set()
+        self.horizon = 16
+        """Path points (0.1 m apart) looked ahead for a straight line to drive."""
 
     def reset(self) -> None:
         self.key, self.path, self.door, self.fails = None, None, None, 0
@@ -166,7 +178,7 @@ class Navigator:
         if len(self.path) <= 1:  # the robot's cell is a goal cell
             self.path = None
             return "arrived"
-        move, _ = steer(pose, self.grid, self.path[1:])
+        move, _ = steer(pose, self.grid, self.path[1:], self.horizon)
         return {"primitive": "move", "move": move}
 
     def _closed_door_ahead(self, pose: Pose) -> Thing | None:
@@ -191,7 +203,7 @@ class DoorOpener:
         self.nav_fails = 0
         self.path: list[tuple[float, float]] | None = None
         self.age = 0
-        self.sent = False
+        self.sent = 0
 
     def stand(self, pose: Pose) -> tuple[float, float]:
         nx, ny = door_normal(self.grid, self.door, pose)
@@ -207,14 +219,12 @@ class DoorOpener:
             return "failed"
         target = self.stand(pose)
         if math.dist(target, pose[:2]) <= 0.25:
-            want = math.atan2(self.door.position[1] - pose[1], self.door.position[0] - pose[0])
-            err = math.remainder(want - pose[2], math.tau)
-            if abs(err) > 0.3 and not self.sent:
-                self.sent = True  # face it once (not needed for the primitive, but tidy)
-                turn = max(-1.0, min(1.0, err / (math.pi / 4)))
-                return {"primitive": "move", "move": [0.0, turn]}
+            turn = face(pose, self.door.position)
+            if turn is not None and self.sent < 3:
+                self.sent += 1  # the camera sees ahead only: face the door first
+                return turn
             self.tries += 1
-            self.sent = False
+            self.sent = 0
             return {"primitive": "open", "target": self.door.id}
         self.age += 1
         if self.path is None or self.age >= REPLAN_EVERY:

@@ -1,30 +1,21 @@
 """Track 1 random/scripted sanity baseline: checks submission, logging and scoring, nothing more.
 
 Exploration: a few dozen random primitives (mostly moves; now and then one on a random
-visible id), then a minimal ``world_model.json`` (the rooms it stood in and what it sees
-last) and an end of stage. Planning: no answers, no plan. Execution: random primitives,
-then ``done``. Uses only ``simhost.agent.RemoteEnv``, numpy and the standard library.
+visible id), then a minimal ``world_model.json`` (the rooms whose signs it read and what it
+sees last) and an end of stage. Planning: no answers, no plan. Execution: random
+primitives, then ``done``. Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``),
+numpy and the standard library.
 """
 
 from __future__ import annotations
 
-import json
-import os
 import sys
-from pathlib import Path
 
 import numpy as np
 
-from simhost.agent import RemoteEnv
+from simhost.agent import OutputFiles, RemoteEnv
 
-OUT = Path(os.environ.get("EAGC_OUTPUT", "/output"))
 STEPS = {"exploration": 40, "execution": 60}
-
-
-def write_json(name: str, doc: dict) -> None:
-    tmp = OUT / f".{name}.tmp"
-    tmp.write_text(json.dumps(doc))
-    tmp.replace(OUT / name)
 
 
 class Agent:
@@ -32,13 +23,12 @@ class Agent:
         self.rng = np.random.default_rng(seed)
         self.step = 0
         self.rooms: dict[int, str] = {}
+        self.room: int | None = None
         self.counts: dict[str, int] = {}
-        self.log = (OUT / "episode_log.jsonl").open("a")
+        self.files = OutputFiles()
 
     def record(self, event: str, stage: str, **data: object) -> None:
-        self.log.write(json.dumps({"step": self.step, "stage": stage, "event": event,
-                                   "data": data}) + "\n")
-        self.log.flush()
+        self.files.log(step=self.step, stage=stage, event=event, data=data)
 
     def action(self, obs: dict) -> dict:
         seen = [d["id"] for d in obs["detections"]]
@@ -56,12 +46,12 @@ class Agent:
             if d["kind"] in ("object", "tool"):
                 dx, dy = d["rel_pos"]
                 objects.append({"id": d["id"], "category": d["category"],
-                                "colour": d["colour"], "room": int(obs["room"][0]),
+                                "colour": d["colour"], "room": self.room,
                                 "position": [x + c * dx - s * dy, y + s * dx + c * dy]})
-        write_json("world_model.json", {
+        self.files.write({
             "version": "eagc-world-model/v1", "step": self.step,
             "rooms": [{"id": r, "type": t} for r, t in self.rooms.items()],
-            "objects": objects})
+            "objects": objects}, "world_model.json")
 
     def run(self, env: RemoteEnv) -> None:
         env.hello(agent="eagc-track1-sanity/1")
@@ -69,7 +59,9 @@ class Agent:
         self.record("stage", ts.stage)
         while not ts.episode_over:
             obs = ts.observation
-            self.rooms[int(obs["room"][0])] = obs["room_name"]
+            if int(obs["room"][0]) >= 0:  # a sign, read on entering a room
+                self.room = int(obs["room"][0])
+                self.rooms[self.room] = obs["room_name"]
             if ts.stage == "planning":
                 ts = env.end_stage({})
                 continue

@@ -4,25 +4,15 @@ Stages: ``exploration`` → ``planning`` (nothing moves: any primitive but ``noo
 and counts as an invalid action; the plan comes in the ``end_stage`` payload) →
 ``execution`` (``done`` ends the episode). At the start of planning the agent gets the
 instruction and the queries; it answers them with ``answer`` requests during planning.
+Each stage's step budget comes from the scenario (``_budgets``).
 
-The controlled exception (at most one, planned by the scenario) is applied where it matters:
-
-- ``object_relocation`` and ``tool_substitution``: when execution starts (the model built in
-  exploration is then out of date);
-- ``door_lock``: when the robot comes within ``TRIGGER_DIST`` of a door on the agent's
-  submitted route (``doors``, else ``route``, else the shortest path to the task's rooms);
-- ``container_unavailable``: when the robot, holding the object, comes within
-  ``TRIGGER_DIST`` of the named container.
-
-Before it is applied for good, the environment must still have a recoverable path
-(``HouseEnv.has_recoverable_path``); otherwise the world is rolled back and the exception is
-skipped. Its first observable effect (the agent could see it, or an action hit it) starts the
-detection window of the recovery score.
+The task holds when every goal holds (``Goal`` in ``_types``; each goal is checked by the
+environment's own ``HouseTask``, with the substitutes accepted once the named container or
+tool became unusable). The controlled exception is ``_exceptions.ControlledException``'s.
 
 Observation: every ``HouseEnv`` array as a tensor (int8 flags as uint8); JSON data:
-``detections`` (a JSON list: ``[{id, kind, category, colour, rel_pos, state}]``, visible things
-only), ``room_name`` (the current room's type) and ``action_result`` (a JSON object:
-``{primitive, ok, reason, collided}``).
+``detections`` (the detection rows as a JSON list), ``room_name`` (the type of ``room``,
+empty when ``room`` is -1) and ``action_result``.
 """
 
 from __future__ import annotations
@@ -35,35 +25,52 @@ import numpy as np
 
 from plugins._base import Scenario
 from plugins.track1 import _queries
-from plugins.track1._paths import reference_length
-from plugins.track1._scenario import SUBSTITUTE_RULE, house_params
-from schemas._protocol import ActionResult, FieldSpec, HostMessage
-from simhost._episode import Observation, StageEnd, StepOutcome, TrackEpisode
+from plugins.track1._budgets import goal_points
+from plugins.track1._exceptions import ControlledException
+from plugins.track1._paths import Point, reference_length
+from plugins.track1._types import (
+    ExecutionStats,
+    Goal,
+    GoalProgress,
+    Track1Outcome,
+    Track1Plan,
+    Track1Scenario,
+)
+from schemas import ActionResult, FieldSpec, HostMessage
+from simhost import Observation, Pose, StepOutcome, TrackEpisode
 
 EXPLORATION, PLANNING, EXECUTION = "exploration", "planning", "execution"
-TRIGGER_DIST = 3.0
 DEADLOCK_STEPS = 30
 DEADLOCK_RADIUS = 0.3
-EFFECT_RADIUS = 2.5
 
 _OBS_TEXT = {
-    "odometry": "x, y (m), yaw (rad) in the house frame",
-    "range_scan": "planar range scan (m), counter-clockwise from straight ahead",
-    "room": "current room id",
-    "room_type": "index of the current room's type (see room_name)",
-    "held": "id of the held item, -1 when the hand is empty",
-    "last_action_ok": "1 when the last primitive succeeded",
-    "collided": "1 when the last move stopped on contact",
-    "det_mask": "1 for rows holding a detection (nearest first)",
-    "det_id": "instance id of each detection, -1 when masked",
-    "det_kind": "index into door, furniture, container, object, tool",
-    "det_category": "category index (names in the detections data)",
-    "det_colour": "colour index (names in the detections data)",
-    "det_state": "visible state index (names in the detections data)",
-    "det_rel_pos": "position in the robot frame (x ahead, y left), m",
-    "rgb": "eye camera RGB",
-    "depth": "eye camera depth (m)",
-    "segmentation": "eye camera instance ids, -1 elsewhere",
+    "odometry": "x, y (m) and yaw (rad, counter-clockwise from +x) of the robot in the house "
+    "frame, as its odometry estimates them (official splits: the estimate drifts as the "
+    "robot moves)",
+    "range_scan": "distances (m) of a planar scan 0.3 m above the floor, rays evenly spaced "
+    "counter-clockwise from straight ahead over 360 degrees; no hit reads the scan range",
+    "room": "id of the room the robot is in (official splits: only at reset and at the step "
+    "it enters a room, read from a sign by the doorway; -1 otherwise)",
+    "room_type": "index into the choices of the type of `room`; -1 when `room` is -1",
+    "held": "instance id of the held item; -1 when the hand is empty",
+    "last_action_ok": "1 when the last primitive succeeded, else 0",
+    "collided": "1 when the last move stopped on contact, else 0",
+    "det_mask": "1 for the rows that hold a detection (nearest first), 0 for padding rows",
+    "det_id": "persistent instance id of each detection (what open/close/pick/place/use "
+    "take); -1 in padding rows",
+    "det_kind": "index into the choices of the detection's kind; -1 in padding rows",
+    "det_category": "index into the choices of the category as reported (official splits: "
+    "now and then a look-alike); -1 in padding rows",
+    "det_colour": "index into the choices of the colour as reported (now and then a "
+    "look-alike); 'none' for doors and furniture; -1 in padding rows",
+    "det_state": "index into the choices of the visible state (official splits: a locked "
+    "door looks closed, an unavailable container as before); -1 in padding rows",
+    "det_rel_pos": "position (m) in the robot frame, x ahead and y to the left (official "
+    "splits: noise growing with distance); 0 in padding rows",
+    "rgb": "egocentric camera image (RGB)",
+    "depth": "egocentric camera depth (m) along the optical axis",
+    "segmentation": "instance id seen at each pixel of the camera image; -1 for walls, "
+    "floors and the robot",
 }
 
 
@@ -77,29 +84,37 @@ def _action_spec() -> tuple[FieldSpec, ...]:
                   description="move: [forward, turn]: turn by turn × 45° (counter-clockwise), "
                   "then drive forward × 0.5 m"),
         FieldSpec(name="target", dtype="int32", low=0, high=MAX_IDS - 1,
-                  description="open/close/pick/use: the instance acted on; place: the "
-                  "receptacle"),
+                  description="open/close/pick/use: the instance acted on (it must be in "
+                  "view and in reach); place: the receptacle"),
         FieldSpec(name="tool", dtype="int32", low=0, high=MAX_IDS - 1,
                   description="use: the held tool"),
     )
 
 
 def _observation_spec(env: Any) -> tuple[FieldSpec, ...]:
-    from simhost.track1 import ROOM_TYPES
+    from simhost.track1 import CATEGORIES, COLOURS, KINDS, ROOM_TYPES, STATES
 
+    names = {"room_type": ROOM_TYPES, "det_kind": KINDS, "det_category": CATEGORIES,
+             "det_colour": COLOURS, "det_state": STATES}
     out = []
     for name, box in env.observation_space.spaces.items():
         dtype = "uint8" if box.dtype == np.int8 else box.dtype.name
+        text = _OBS_TEXT.get(name, "")
+        if name in names:
+            text = text.replace("the choices", "(" + ", ".join(names[name]) + ")")
         out.append(FieldSpec(name=name, dtype=dtype, shape=tuple(box.shape),
                              low=float(np.min(box.low)), high=float(np.max(box.high)),
-                             tensor=True, description=_OBS_TEXT.get(name, "")))
+                             tensor=True, description=text))
     out += [
-        FieldSpec(name="detections", dtype="json", description="list of the visible "
-                  "things: {id, kind, category, colour, rel_pos: [x ahead, y left], state}"),
-        FieldSpec(name="room_name", dtype="str", choices=ROOM_TYPES,
-                  description="the current room's type"),
+        FieldSpec(name="detections", dtype="json", description="the detection rows as a JSON "
+                  "list of {id, kind, category, colour, rel_pos: [x ahead, y left] (m), "
+                  "state}, with names instead of indices"),
+        FieldSpec(name="room_name", dtype="str",
+                  description="the type of `room` (" + ", ".join(ROOM_TYPES) + "); empty "
+                  "when `room` is -1"),
         FieldSpec(name="action_result", dtype="json",
-                  description="{primitive, ok, reason, collided} of the last action"),
+                  description="{primitive, ok, reason, collided} of the last action (reason: "
+                  "why it failed, 'collided' for a move stopped on contact, else empty)"),
     ]
     return tuple(out)
 
@@ -111,12 +126,14 @@ class Track1Episode(TrackEpisode):
         from simhost.track1 import HouseEnv
 
         self.scenario = scenario
-        p = scenario.params
-        self.task: dict[str, Any] = dict(p["task"])
-        self.env = HouseEnv(params=house_params(p["house"]), render_rgbd=p["render_rgbd"],
-                            image_size=tuple(p["image_size"]))
+        self.spec = Track1Scenario.model_validate(scenario.params)
+        self.task = self.spec.task
+        self.env = HouseEnv(split=self.spec.split)
         self.observation_spec = _observation_spec(self.env)
         self.action_spec = _action_spec()
+        self.exception = ControlledException(
+            self.spec.exception, self.task, scenario.seed,
+            hidden=not self.spec.split.config.reveal_exceptions)
         self._obs: dict[str, np.ndarray] = {}
         self._info: dict[str, Any] = {}
         self._ready = False
@@ -128,33 +145,32 @@ class Track1Episode(TrackEpisode):
         self.redundant = 0
         self._anchor: tuple[float, float, int] | None = None
         self.seen: set[int] = set()
-        self.visited: set[int] = set()
-        self.gt_exploration: dict[str, Any] | None = None
+        self.gt_exploration: Any = None
+        self.gt_execution: Any = None
         self.answers: dict[str, Any] = {}
-        self.queries_sent: list[dict[str, Any]] = []
-        self.plan: dict[str, Any] | None = None
+        self.plan: Track1Plan | None = None
         self.plan_error = ""
-        self.exec_start: dict[str, Any] | None = None
-        self.subgoals: dict[str, int | None] = {k: None for k in self.task["subgoals"]}
-        self.marks: dict[str, tuple[float, float]] = {}
-        self.used_with: int | None = None
+        self.exec_start: tuple[int, Point] | None = None
+        self.marks: list[dict[str, int | None]] = [dict.fromkeys(g.subgoals) for g in
+                                                   self.task.goals]
         self.success_step: int | None = None
-        self.planned: str | None = p["exception"]
-        self.exc_type: str | None = p["exception"]
-        self.exc_subject: int | None = None
-        self.exception: dict[str, Any] | None = None
-        self.skipped: str | None = None
+        self.path_at_success: float | None = None
+
+    @property
+    def house(self) -> Any:
+        """The simulated house (``simhost.track1.House``)."""
+        assert self.env.house is not None
+        return self.env.house
 
     # ---------------------------------------------------------------- TrackEpisode
     def reset(self) -> Observation:
         self._obs, self._info = self.env.reset(seed=self.scenario.seed)
         digest = self.env.layout.digest()
-        if digest != self.scenario.params["layout_digest"]:
+        if digest != self.spec.layout_digest:
             raise RuntimeError(f"house {self.scenario.seed} was generated differently "
-                               f"({digest[:12]} vs {self.scenario.params['layout_digest'][:12]})")
+                               f"({digest[:12]} vs {self.spec.layout_digest[:12]})")
         self._ready = True
-        self.visited.add(self._room())
-        self.seen.update(d["id"] for d in self._info["detections"])
+        self.seen.update(self.perceived_ids())
         return self.observe()
 
     def observe(self) -> Observation:
@@ -164,10 +180,22 @@ class Track1Episode(TrackEpisode):
         result = info.get("action_result", {})
         data = {
             "detections": list(info.get("detections", [])),
-            "room_name": info.get("room", {}).get("type", "hallway"),
+            "room_name": (info.get("room") or {}).get("type") or "",
             "action_result": {**result, "collided": bool(info.get("collided"))},
         }
         return Observation(tensors=tensors, data=data)
+
+    def step_budget(self, stage: str) -> int | None:
+        """The episode's step cap for a stage (``_budgets``); None for planning."""
+        return self.spec.budgets.get(stage)
+
+    def poses(self) -> Mapping[str, Pose]:
+        """The robot's true pose (organizer-only; its odometry may drift)."""
+        if not self._ready:
+            return {}
+        x, y, yaw = self.house.robot_pose
+        return {"robot": Pose(position=(x, y, 0.0),
+                              orientation=(math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)))}
 
     def on_stage_start(self, stage: str) -> tuple[HostMessage, ...]:
         if stage == EXPLORATION:
@@ -176,21 +204,24 @@ class Track1Episode(TrackEpisode):
                 "the end of this stage is graded, and queries about it follow.")}),)
         if stage == PLANNING:
             t = self.task
-            self.queries_sent = _queries.to_send(self.scenario.params["queries"], self)
+            instruction: dict[str, Any] = {
+                "text": t.text, "steps": list(t.steps),
+                "plan_format": {"subgoals": "list of strings", "route": "room ids in "
+                                "visiting order", "doors": "door ids in crossing order"}}
+            if t.substitute_rule:
+                instruction["substitutes"] = t.substitute_rule
             return (
-                HostMessage(type="instruction", data={
-                    "text": t["text"], "steps": list(t["steps"]), "substitutes": SUBSTITUTE_RULE,
-                    "plan_format": {"subgoals": "list of strings", "route": "room ids in "
-                                    "visiting order", "doors": "door ids in crossing order"}}),
+                HostMessage(type="instruction", data=instruction),
                 HostMessage(type="queries", data={
-                    "queries": self.queries_sent,
-                    "answer_with": "an answer request during planning: {query id: answer}"}),
+                    "queries": _queries.to_send(self.spec.queries, self.seen),
+                    "answer_with": "an answer request during planning: {query id: answer}; "
+                    "'unknown' scores as wrong, never below zero"}),
             )
         return (HostMessage(type="notice", data={"text": "Execute your plan; send done when "
                                                  "the task is complete."}),)
 
     def on_stage_end(
-        self, stage: str, *, ended_by: StageEnd, payload: Mapping[str, Any]
+        self, stage: str, *, ended_by: str, payload: Mapping[str, Any]
     ) -> tuple[Mapping[str, Any], ...]:
         if not self._ready:
             return ()
@@ -199,15 +230,14 @@ class Track1Episode(TrackEpisode):
             return ()
         if stage != PLANNING:
             return ()
-        from plugins.track1 import _exceptions
-
-        events: list[Mapping[str, Any]] = []
-        self.plan, self.plan_error = _exceptions.parse_plan(payload)
-        events.append({"event": "plan", "plan": self.plan, "error": self.plan_error})
-        x, y, _ = self.env.house.robot_pose  # type: ignore[union-attr]
-        self.exec_start = {"pose": [x, y], "step": self.steps}
-        self.marks["start"] = (x, y)
-        events += _exceptions.on_execution_start(self)
+        self.plan, self.plan_error = parse_plan(payload)
+        events: list[Mapping[str, Any]] = [{
+            "event": "plan", "plan": None if self.plan is None else self.plan.model_dump(),
+            "error": self.plan_error}]
+        x, y, _ = self.house.robot_pose
+        self.exec_start = (self.steps, (x, y))
+        self.gt_execution = self.env.ground_truth()
+        events += self._reobserve(self.exception.start_execution(self))
         return tuple(events)
 
     def step(self, stage: str, action: Mapping[str, Any]) -> StepOutcome:
@@ -223,15 +253,13 @@ class Track1Episode(TrackEpisode):
         if primitive == "done" and stage != EXECUTION:
             return self._refuse("done ends the task during execution; end this stage with "
                                 "an end_stage request")
-        house = self.env.house
-        assert house is not None
-        x0, y0, yaw0 = house.robot_pose
+        x0, y0, yaw0 = self.house.robot_pose
         move = action.get("move")
         self._obs, _, terminated, _, self._info = self.env.step({
             "primitive": PRIMITIVES.index(primitive),
             "move": np.zeros(2, np.float32) if move is None else move,
             "target": int(action.get("target", 0)), "tool": int(action.get("tool", 0))})
-        x1, y1, yaw1 = house.robot_pose
+        x1, y1, yaw1 = self.house.robot_pose
         result = self._info["action_result"]
         moved = math.hypot(x1 - x0, y1 - y0)
         self.path[stage] = self.path.get(stage, 0.0) + moved
@@ -239,14 +267,14 @@ class Track1Episode(TrackEpisode):
         self._track_deadlock(x1, y1, primitive, result["ok"])
         events: list[Mapping[str, Any]] = []
         if stage == EXPLORATION:
-            self.seen.update(d["id"] for d in self._info["detections"])
-            self.visited.add(self._room())
+            self.seen.update(self.perceived_ids())
         elif stage == EXECUTION:
             turned = abs(math.remainder(yaw1 - yaw0, math.tau))
             if (primitive == "noop" or not result["ok"]
                     or (primitive == "move" and moved < 0.02 and turned < 0.02)):
                 self.redundant += 1
-            events += self._execution_step(primitive, action, result)
+            events += self._reobserve(self.exception.on_step(self, action, result))
+            events += self._progress()
         ok = bool(result["ok"])
         out_action = ActionResult(applied=ok, ok=ok, reason=result["reason"])
         if terminated and stage == EXECUTION:
@@ -259,9 +287,9 @@ class Track1Episode(TrackEpisode):
         if stage != PLANNING:
             return StepOutcome(observation=self.observe(), action=ActionResult(
                 applied=False, ok=False, reason="answers are taken during planning only"))
-        sent = {q["id"] for q in self.queries_sent}
-        unknown = sorted(set(answers) - sent)
-        for key in set(answers) & sent:
+        asked = {q.id for q in self.spec.queries}
+        unknown = sorted(set(answers) - asked)
+        for key in set(answers) & asked:
             self.answers[key] = answers[key]
         reason = f"unknown query ids ignored: {unknown[:10]}" if unknown else ""
         return StepOutcome(observation=self.observe(),
@@ -277,9 +305,16 @@ class Track1Episode(TrackEpisode):
     def close(self) -> None:
         self.env.close()
 
-    # ---------------------------------------------------------------- bookkeeping
-    def _room(self) -> int:
-        return int(self._info["room"]["id"])
+    # ---------------------------------------------------------------- what the agent sees
+    def perceived_ids(self) -> set[int]:
+        """Ids in the agent's detections at this step."""
+        return {int(d["id"]) for d in self._info.get("detections", ())}
+
+    def _reobserve(self, events: list[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
+        """After an exception was applied, the step's observation shows it."""
+        if any(e.get("event") == "exception" for e in events):
+            self._obs, self._info = self.env.observe()
+        return events
 
     def _refuse(self, reason: str) -> StepOutcome:
         return StepOutcome(observation=self.observe(),
@@ -294,132 +329,165 @@ class Track1Episode(TrackEpisode):
             self.deadlocks += 1
             self._anchor = (x, y, self.steps)
 
-    def _execution_step(
-        self, primitive: str, action: Mapping[str, Any], result: Mapping[str, Any]
-    ) -> list[Mapping[str, Any]]:
-        from plugins.track1 import _exceptions
+    # ---------------------------------------------------------------- the task
+    def accepted_destinations(self, goal: Goal) -> list[int]:
+        """Where a goal may be completed now: the named receptacle or target, else (the
+        named container became unusable) the other containers of its room."""
+        world = self.house.world
+        if goal.kind == "place" and goal.container and goal.receptacle in world.unavailable:
+            return [r for r in goal.substitutes if r not in world.unavailable]
+        return [goal.destination]
 
-        events = list(_exceptions.on_step(self, primitive, action, result))
-        house = self.env.house
-        assert house is not None
-        t = self.task
-        if (primitive == "use" and result["ok"] and t["kind"] == "use"
-                and int(action.get("target", -1)) == t["target"]):
-            self.used_with = int(action.get("tool", -1))
+    def accepted_tools(self, goal: Goal) -> list[int]:
+        """The named tool, else (it was taken away) the others with the same use."""
+        world = self.house.world
+        if goal.kind != "use":
+            return []
+        assert goal.tool is not None
+        if goal.tool in world.removed:
+            return [s for s in goal.substitutes if s not in world.removed]
+        return [goal.tool]
+
+    def house_task(self, goal: Goal) -> Any:
+        """A goal as the environment's ``HouseTask``."""
+        from simhost.track1 import HouseTask
+
+        if goal.kind == "place":
+            return HouseTask(kind="place", object=goal.object,
+                             receptacles=tuple(self.accepted_destinations(goal)))
+        return HouseTask(kind="use", target=goal.target, affordance=goal.affordance,
+                         tools=tuple(self.accepted_tools(goal)))
+
+    def goal_done(self, goal: Goal) -> bool:
+        return bool(self.house.task_satisfied(self.house_task(goal)))
+
+    def success(self) -> bool:
+        """Whether every goal holds now."""
+        return self._ready and all(self.goal_done(g) for g in self.task.goals)
+
+    def recoverable(self) -> bool:
+        """Whether every goal can still be completed from where the robot is."""
+        return all(self.env.has_recoverable_path(self.house_task(g)) for g in self.task.goals)
+
+    def _progress(self) -> list[Mapping[str, Any]]:
+        """Marks the key subgoals reached at this step."""
+        house = self.house
         held = house.world.held
-        x, y, _ = house.robot_pose
-        item = t["object"] if t["kind"] == "place" else None
-        picked = (held == item) if item is not None else held in self.valid_tools()
-        reached = picked and any(house.in_reach(r) for r in self.valid_targets())
-        state = {
-            "picked": lambda: picked,
-            "reached": lambda: reached,
-            "opened": lambda: reached and any(house.world.container_state(r) == "open"
-                                              for r in self.valid_targets()),
-            "placed": self.success,
-            "used": self.success,
-        }
-        for key in self.subgoals:
-            if self.subgoals[key] is None and state[key]():
-                self.subgoals[key] = self.steps
-                events.append({"event": "subgoal", "subgoal": key, "step": self.steps})
-                if key == "picked":
-                    self.marks["pick"] = (x, y)
+        events: list[Mapping[str, Any]] = []
+        for k, (goal, marks) in enumerate(zip(self.task.goals, self.marks, strict=True)):
+            picked = (held == goal.fetched if goal.kind == "place"
+                      else held in self.accepted_tools(goal))
+            dests = self.accepted_destinations(goal)
+            reached = picked and any(house.in_reach(r) for r in dests)
+            now = {
+                "picked": picked,
+                "reached": reached,
+                "opened": reached and goal.container and any(
+                    house.world.container_state(r) == "open" for r in dests),
+            }
+            for key in marks:
+                if marks[key] is None and (now[key] if key in now else self.goal_done(goal)):
+                    marks[key] = self.steps
+                    events.append({"event": "subgoal", "goal": k, "subgoal": key,
+                                   "step": self.steps})
         if self.success_step is None and self.success():
             self.success_step = self.steps
-            self.marks["success"] = (x, y)
-            self.exec_start = {**(self.exec_start or {}), "path_at_success":
-                               self.path.get(EXECUTION, 0.0)}
+            self.path_at_success = self.path.get(EXECUTION, 0.0)
             events.append({"event": "task_satisfied", "step": self.steps})
         return events
 
-    # ---------------------------------------------------------------- the task
-    def valid_targets(self) -> list[int]:
-        """Where the task may be completed now: the named receptacle or target, else the
-        substitutes of an unusable named container."""
-        t, world = self.task, self.env.house.world  # type: ignore[union-attr]
-        if t["kind"] == "use":
-            return [t["target"]]
-        if t["container"] and t["receptacle"] in world.unavailable:
-            return [r for r in t["substitutes"] if r not in world.unavailable]
-        return [t["receptacle"]]
-
-    def valid_tools(self) -> list[int]:
-        """The named tool, else (when it was taken away) its substitutes."""
-        t, world = self.task, self.env.house.world  # type: ignore[union-attr]
-        if t["kind"] != "use":
-            return []
-        if t["tool"] in world.removed:
-            return [s for s in t["substitutes"] if s not in world.removed]
-        return [t["tool"]]
-
-    def success(self) -> bool:
-        """Whether the main objective holds now."""
-        if not self._ready:
-            return False
-        from simhost.track1 import AFFORDANCE_EFFECTS
-
-        t, world = self.task, self.env.house.world  # type: ignore[union-attr]
-        if t["kind"] == "place":
-            place = world.places.get(t["object"])
-            return place is not None and place[0] in self.valid_targets()
-        after = AFFORDANCE_EFFECTS[t["affordance"]][1]
-        return world.conditions.get(t["target"]) == after and self.used_with in self.valid_tools()
-
-    def house_task(self) -> dict[str, Any]:
-        """The task as a ``HouseTask`` dict (for ``has_recoverable_path``)."""
-        t = self.task
-        if t["kind"] == "place":
-            return {"kind": "place", "object": t["object"], "receptacles": self.valid_targets()}
-        return {"kind": "use", "target": t["target"], "affordance": t["affordance"]}
-
     # ---------------------------------------------------------------- outcome
+    def _reference(self) -> float | None:
+        """The efficiency score's reference: the shortest route from where execution started
+        through the true access poses of each goal (the substitute or new place the
+        exception forced, the door it locked from where it locked)."""
+        if self.exec_start is None or self.gt_execution is None:
+            return None
+        truth, (start_step, start) = self.gt_execution, self.exec_start
+        goals = self.task.goals
+        swap: dict[tuple[int, str], Point] = {}
+        for k, g in enumerate(goals):
+            obj = truth.object(g.fetched)
+            if obj is not None and obj.held:
+                swap[(k, "from")] = start
+        rec = self.exception.record
+        lock: tuple[int, Point, int] | None = None
+        if rec is not None:
+            g, k = goals[rec.goal], rec.goal
+            if rec.type == "object_relocation":
+                swap[(k, "via")] = rec.pose
+                swap[(k, "from")] = _access_of(truth, int(rec.details["receptacle"]))
+            elif rec.type == "tool_substitution":
+                tools = self.accepted_tools(g)
+                used = self.house.world.used_by.get(g.target)
+                best = used if used in tools else min(
+                    tools, key=lambda t: math.dist(_access_of(truth, t), start))
+                swap[(k, "from")] = _access_of(truth, best)
+            elif rec.type == "container_unavailable":
+                place = self.house.world.places.get(g.fetched)
+                dest = place[0] if place is not None else self.accepted_destinations(g)[0]
+                swap[(k, "to")] = _access_of(truth, dest)
+            else:
+                lock = (rec.step, rec.pose, rec.subject)
+        points = goal_points(truth, goals, start, swap)
+        # When each waypoint was reached, to place the lock on the route.
+        steps = [start_step]
+        for k, marks in enumerate(self.marks):
+            if (k, "via") in swap:
+                steps.append(rec.step if rec is not None else start_step)
+            steps += [marks.get("picked") or start_step,
+                      marks.get("placed") or marks.get("used") or start_step]
+        waypoints = [(p, frozenset[int]()) for p in points]
+        if lock is not None:
+            at = next((i for i, s in enumerate(steps) if s > lock[0]), len(points))
+            waypoints.insert(at, (lock[1], frozenset()))
+            waypoints = [(p, frozenset({lock[2]}) if i >= at else b)
+                         for i, (p, b) in enumerate(waypoints)]
+        return reference_length(self.env.layout, waypoints)
+
     def outcome(self) -> dict[str, Any]:
         if not self._ready:
-            return {"started": False, "task": self.task, "planned_exception": self.planned}
-        gt = self.env.ground_truth()
+            return Track1Outcome(started=False, task=self.task,
+                           planned_exception=self.spec.exception).model_dump(mode="json")
         success = self.success()
-        reference = None
-        if success and "start" in self.marks:
-            waypoints = []
-            exc = self.exception
-            lock = (frozenset({exc["details"]["door"]}) if exc and exc["type"] == "door_lock"
-                    else frozenset())
-            marks = [("start", self.exec_start["step"] if self.exec_start else 0),
-                     ("pick", self.subgoals.get("picked") or 0), ("success", self.success_step)]
-            if exc is not None and exc["type"] == "door_lock":
-                self.marks["lock"] = tuple(exc["pose"])  # type: ignore[assignment]
-                marks.append(("lock", exc["step"]))
-            for name, step in sorted((m for m in marks if m[0] in self.marks),
-                                     key=lambda m: m[1] or 0):
-                blocked = lock if exc is not None and (step or 0) >= exc["step"] else frozenset()
-                waypoints.append((self.marks[name], blocked))
-            reference = reference_length(self.env.layout, waypoints)
-        return {
-            "started": True,
-            "task": self.task,
-            "planned_exception": self.planned,
-            "exception": self.exception,
-            "exception_skipped": self.skipped,
-            "success": success,
-            "subgoals": self.subgoals,
-            "used_with": self.used_with,
-            "plan": self.plan,
-            "plan_error": self.plan_error,
-            "queries": _queries.grade(self.scenario.params["queries"], self),
-            "gt_exploration": self.gt_exploration,
-            "gt_final": gt,
-            "steps": self.steps,
-            "stage_steps": self.stage_steps,
-            "path": self.path,
-            "execution": {
-                "start": self.exec_start,
-                "steps": self.stage_steps.get(EXECUTION, 0),
-                "redundant": self.redundant,
-                "reference_length": reference,
-                "path_at_success": (self.exec_start or {}).get("path_at_success"),
-            },
-            "collisions": self.collisions,
-            "deadlocks": self.deadlocks,
-            "sim_warnings": int(sum(self._info.get("sim_warnings", {}).values())),
-        }
+        execution = ExecutionStats(
+            start_step=None if self.exec_start is None else self.exec_start[0],
+            start_pose=None if self.exec_start is None else self.exec_start[1],
+            steps=self.stage_steps.get(EXECUTION, 0), redundant=self.redundant,
+            path_at_success=self.path_at_success,
+            reference_length=self._reference() if success else None)
+        out = Track1Outcome(
+            started=True, task=self.task, planned_exception=self.spec.exception,
+            exception=self.exception.record, exception_skipped=self.exception.skipped,
+            success=success,
+            goals=tuple(GoalProgress(subgoals=dict(m), done=self.goal_done(g))
+                        for g, m in zip(self.task.goals, self.marks, strict=True)),
+            plan=self.plan, plan_error=self.plan_error,
+            queries=_queries.grade(self.spec.queries, self.answers, self.gt_exploration),
+            gt_exploration=self.gt_exploration, gt_final=self.env.ground_truth(),
+            steps=self.steps, stage_steps=self.stage_steps, path=self.path,
+            execution=execution, collisions=self.collisions, deadlocks=self.deadlocks,
+            sim_warnings=int(sum(self._info.get("sim_warnings", {}).values())))
+        return out.model_dump(mode="json")
+
+
+def _access_of(truth: Any, entity: int) -> Point:
+    rec = truth.receptacle(entity)
+    if rec is None:
+        obj = truth.object(entity)
+        rec = truth.receptacle(obj.receptacle) if obj is not None else None
+    assert rec is not None, f"no place for entity {entity}"
+    return (rec.access[0], rec.access[1])
+
+
+def parse_plan(payload: Mapping[str, Any]) -> tuple[Track1Plan | None, str]:
+    """The submitted plan (``payload["plan"]``, or the payload itself) and an error text."""
+    from pydantic import ValidationError
+
+    raw = payload.get("plan", payload) if isinstance(payload, Mapping) else None
+    if not raw:
+        return None, "no plan submitted"
+    try:
+        return Track1Plan.model_validate(raw), ""
+    except ValidationError as e:
+        return None, f"invalid plan: {e.errors()[0]['msg']}"

@@ -3,37 +3,46 @@
     preview(seed, split, out_dir) -> [out_dir/track1-<split>-<seed>.png]
     trajectory_png(episode_dir) -> episode_dir/host/trajectory.png
 
-Markers: the task's item (magenta ring), where it must go or what it acts on (cyan ring),
-the exception's place (red ring). Trajectories: exploration blue, planning (no motion)
-grey, execution orange.
+Each picture has a title (track, split, seed, and the outcome or the task), the house from
+above with a legend for every colour and marker, and a 1 m scale bar. Markers: what a goal
+fetches (magenta ring), where it goes or what it acts on (cyan ring), where the exception
+happened (red ring). Trajectories, from the odometry the agent observed: exploration blue,
+planning (no motion) grey, execution orange.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import textwrap
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-SCALE, MARGIN = 48.0, 12  # as simhost.track1.render_topdown draws
+from plugins.track1._types import Task, Track1Scenario
+
 ITEM, GOAL, EXCEPTION = (220, 0, 200), (0, 170, 210), (220, 20, 20)
 STAGE_COLOURS = {"exploration": (30, 90, 220), "planning": (120, 120, 120),
                  "execution": (240, 120, 0)}
+Colour = tuple[int, int, int]
+_LINE = 14  # pixels per line of size-2 text
 
 
 class _Overlay:
     """Draws over a top-down picture in house coordinates."""
 
     def __init__(self, img: np.ndarray, height_m: float) -> None:
+        from simhost.track1 import TOPDOWN_MARGIN, TOPDOWN_SCALE
+
         self.img, self.height_m = img, height_m
+        self.scale, self.margin = TOPDOWN_SCALE, TOPDOWN_MARGIN
 
     def px(self, x: float, y: float) -> tuple[float, float]:
-        return MARGIN + x * SCALE, MARGIN + (self.height_m - y) * SCALE
+        return self.margin + x * self.scale, self.margin + (self.height_m - y) * self.scale
 
-    def disc(self, x: float, y: float, r_px: float, colour: tuple[int, int, int],
-             inner_px: float = 0.0) -> None:
+    def disc(self, x: float, y: float, r_px: float, colour: Colour, inner_px: float = 0.0
+             ) -> None:
         cx, cy = self.px(x, y)
         h, w = self.img.shape[:2]
         j0, j1 = max(0, int(cy - r_px - 1)), min(h, int(cy + r_px + 2))
@@ -44,26 +53,67 @@ class _Overlay:
         d2 = (ii + 0.5 - cx) ** 2 + (jj + 0.5 - cy) ** 2
         self.img[j0:j1, i0:i1][(d2 <= r_px * r_px) & (d2 >= inner_px * inner_px)] = colour
 
-    def ring(self, x: float, y: float, colour: tuple[int, int, int]) -> None:
-        self.disc(x, y, 0.45 * SCALE, colour, inner_px=0.45 * SCALE - 4)
+    def ring(self, x: float, y: float, colour: Colour) -> None:
+        self.disc(x, y, 0.45 * self.scale, colour, inner_px=0.45 * self.scale - 4)
 
-    def polyline(self, points: list[tuple[float, float]], colour: tuple[int, int, int]) -> None:
+    def polyline(self, points: list[tuple[float, float]], colour: Colour) -> None:
         for (x0, y0), (x1, y1) in zip(points, points[1:], strict=False):
-            n = max(2, int(math.hypot(x1 - x0, y1 - y0) * SCALE))
+            n = max(2, int(math.hypot(x1 - x0, y1 - y0) * self.scale))
             for t in np.linspace(0.0, 1.0, n):
                 self.disc(x0 + (x1 - x0) * t, y0 + (y1 - y0) * t, 1.6, colour)
 
 
-def _mark_task(overlay: _Overlay, layout: Any, task: dict[str, Any]) -> None:
-    first = task["object"] if task["kind"] == "place" else task["tool"]
-    second = task["receptacle"] if task["kind"] == "place" else task["target"]
-    for entity_id, colour in ((first, ITEM), (second, GOAL)):
-        e = layout.entity(entity_id)
-        if hasattr(e, "receptacle"):
-            x, y, _ = layout.item_position(e, e.receptacle, e.slot)
-        else:
-            x, y = e.pos
-        overlay.ring(x, y, colour)
+def _mark_task(overlay: _Overlay, layout: Any, task: Task) -> None:
+    for goal in task.goals:
+        for entity_id, colour in ((goal.fetched, ITEM), (goal.destination, GOAL)):
+            e = layout.entity(entity_id)
+            if hasattr(e, "receptacle"):
+                x, y, _ = layout.item_position(e, e.receptacle, e.slot)
+            else:
+                x, y = e.pos
+            overlay.ring(x, y, colour)
+
+
+def _framed(img: np.ndarray, title: list[str], legend: list[tuple[str, Colour]]) -> np.ndarray:
+    """The picture with its title above, and its legend and a 1 m scale bar below."""
+    from simhost.track1 import TOPDOWN_SCALE, draw_text
+
+    width = max(img.shape[1], 420)
+    entries: list[list[tuple[str, Colour]]] = [[]]
+    x = 8
+    for label, colour in legend:
+        need = 18 + 8 * len(label) + 12
+        if x + need > width - 8:
+            entries.append([])
+            x = 8
+        entries[-1].append((label, colour))
+        x += need
+    top = 8 + _LINE * len(title)
+    bottom = 8 + _LINE * (len(entries) + 1) + 8
+    out = np.full((top + img.shape[0] + bottom, width, 3), 255, np.uint8)
+    for k, line in enumerate(title):
+        draw_text(out, 8, 6 + _LINE * k, line)
+    out[top:top + img.shape[0], :img.shape[1]] = img
+    y = top + img.shape[0] + 8
+    for row in entries:
+        x = 8
+        for label, colour in row:
+            out[y:y + 10, x:x + 10] = colour
+            out[y:y + 10, x:x + 1] = out[y:y + 10, x + 9:x + 10] = 0
+            out[y:y + 1, x:x + 10] = out[y + 9:y + 10, x:x + 10] = 0
+            x = draw_text(out, x + 16, y, label) + 12
+        y += _LINE
+    bar = int(round(TOPDOWN_SCALE))
+    out[y + 4:y + 7, 8:8 + bar] = 0
+    out[y:y + 11, 8:9] = out[y:y + 11, 8 + bar - 1:8 + bar] = 0
+    draw_text(out, 16 + bar, y + 1, "1 M")
+    return out
+
+
+def _legend(*extra: tuple[str, Colour]) -> list[tuple[str, Colour]]:
+    from simhost.track1 import TOPDOWN_LEGEND
+
+    return [*TOPDOWN_LEGEND, ("goal item", ITEM), ("goal place", GOAL), *extra]
 
 
 def _side_by_side(left: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -75,16 +125,14 @@ def _side_by_side(left: np.ndarray, right: np.ndarray) -> np.ndarray:
 
 
 def preview(seed: int, split: str, out_dir: str | Path) -> list[Path]:
-    """A scenario's preview: the top-down map (task marked) beside the robot's first camera
-    frame. Returns the PNG's path."""
+    """A scenario's preview: the top-down map (the goals marked) beside the robot's first
+    camera frame, titled with the split, the seed and the instruction. Returns its path."""
     from plugins.track1._track import Track1
     from simhost.track1 import HouseEnv, render_topdown, write_png
 
     scenario = Track1().make_scenario(seed=seed, split=split, params={})
-    from plugins.track1._scenario import house_params
-
-    env = HouseEnv(params=house_params(scenario.params["house"]), render_rgbd=True,
-                   image_size=(320, 240))
+    spec = Track1Scenario.model_validate(scenario.params)
+    env = HouseEnv(split=spec.split, render_rgbd=True, image_size=(320, 240), field_of_view=360.0)
     try:
         env.reset(seed=seed)
         x, y, _ = env.layout.start
@@ -92,10 +140,16 @@ def preview(seed: int, split: str, out_dir: str | Path) -> list[Path]:
         env.teleport_robot(x, y, math.atan2(cy - y, cx - x))  # look into the room
         obs = env.step({"primitive": 0})[0]
         top = render_topdown(env)
-        _mark_task(_Overlay(top, env.layout.extent[1]), env.layout, scenario.params["task"])
+        _mark_task(_Overlay(top, env.layout.extent[1]), env.layout, spec.task)
         picture = _side_by_side(top, np.asarray(obs["rgb"], np.uint8))
     finally:
         env.close()
+    exc = spec.exception.type.replace("_", " ") if spec.exception else "no exception"
+    wrap = max(20, picture.shape[1] // 8 - 2)
+    title = [f"TRACK1 {split} seed {seed}: preview ({spec.rooms} rooms, {exc})",
+             *textwrap.wrap(f"task: {spec.task.text}", wrap),
+             "left: the house from above. right: the first camera frame"]
+    picture = _framed(picture, title, _legend())
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = out / f"track1-{split}-{seed}.png"
@@ -104,15 +158,16 @@ def preview(seed: int, split: str, out_dir: str | Path) -> list[Path]:
 
 
 def _read_mcap(path: Path) -> tuple[dict[str, Any], list[tuple[int, list[float]]],
-                                    list[tuple[int, dict[str, Any]]]]:
+                                    list[tuple[int, dict[str, Any]]], float | None]:
     from mcap.reader import make_reader
 
     scenario: dict[str, Any] = {}
     poses: list[tuple[int, list[float]]] = []
     events: list[tuple[int, dict[str, Any]]] = []
+    total: float | None = None
     with path.open("rb") as f:
         for _, channel, message in make_reader(f).iter_messages(
-                topics=["/eagc/scenario", "/eagc/observation", "/eagc/event"]):
+                topics=["/eagc/scenario", "/eagc/observation", "/eagc/event", "/eagc/score"]):
             doc = json.loads(message.data)
             if channel.topic == "/eagc/scenario":
                 scenario = doc
@@ -120,27 +175,28 @@ def _read_mcap(path: Path) -> tuple[dict[str, Any], list[tuple[int, list[float]]
                 poses.append((message.log_time, doc["odometry"]))
             elif channel.topic == "/eagc/event":
                 events.append((message.log_time, doc))
-    return scenario, poses, events
+            elif channel.topic == "/eagc/score" and isinstance(doc.get("total"), int | float):
+                total = float(doc["total"])
+    return scenario, poses, events, total
 
 
 def trajectory_png(episode_dir: str | Path) -> Path:
     """Draws an episode's robot trajectory over its house from ``host/episode.mcap``;
     writes ``host/trajectory.png`` and returns its path."""
-    from plugins.track1._scenario import house_params
     from simhost.track1 import generate_house, render_topdown, write_png
 
     host = Path(episode_dir) / "host"
     mcap = host / "episode.mcap"
     if not mcap.is_file():
         raise FileNotFoundError(f"{mcap} does not exist: is {episode_dir} an episode folder?")
-    scenario, poses, events = _read_mcap(mcap)
+    scenario, poses, events, total = _read_mcap(mcap)
     if scenario.get("track") != "track1":
         raise ValueError(f"{mcap} is a {scenario.get('track')!r} episode, not track1")
-    params = scenario["params"]
-    layout = generate_house(int(scenario["seed"]), params=house_params(params["house"]))
+    spec = Track1Scenario.model_validate(scenario["params"])
+    layout = generate_house(int(scenario["seed"]), params=spec.split.params)
     img = render_topdown(layout)
     overlay = _Overlay(img, layout.extent[1])
-    _mark_task(overlay, layout, params["task"])
+    _mark_task(overlay, layout, spec.task)
     starts = sorted((t, e["stage"]) for t, e in events if e.get("event") == "stage_start")
     for k, (t0, stage) in enumerate(starts):
         t1 = starts[k + 1][0] if k + 1 < len(starts) else math.inf
@@ -149,6 +205,14 @@ def trajectory_png(episode_dir: str | Path) -> Path:
     for _, e in events:
         if e.get("event") == "exception" and e.get("pose"):
             overlay.ring(e["pose"][0], e["pose"][1], EXCEPTION)
+    end = next((e.get("reason") for _, e in reversed(events)
+                if e.get("event") == "episode_end"), "unfinished")
+    score = "not scored" if total is None else f"score {100 * total:.1f}"
+    split = scenario.get("split", "?")
+    title = [f"TRACK1 {split} seed {scenario['seed']}: {end}, {score}",
+             *textwrap.wrap(f"task: {spec.task.text}", max(20, img.shape[1] // 8 - 2))]
+    legend = _legend(("exception", EXCEPTION),
+                     *((f"{s} path", c) for s, c in STAGE_COLOURS.items()))
     path = host / "trajectory.png"
-    write_png(path, img)
+    write_png(path, _framed(img, title, legend))
     return path

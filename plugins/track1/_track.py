@@ -2,8 +2,12 @@
 
 Stages (Table II, official budgets; a campaign's ``time_scale`` and step caps scale them):
 ``exploration`` 20 min, ``planning`` 10 min (nothing moves; the plan ends it), ``execution``
-60 min. Splits: ``standard`` (3–5 rooms, an exception in about half the episodes, weight
-0.6) and ``challenge`` (6–8 rooms, always an exception, weight 0.4), as in equation (2).
+60 min; besides, each episode has step budgets derived from its ground truth
+(``_budgets``). Splits: ``standard`` (3–5 rooms, a robot's perception, two-clause
+instructions, an exception in about half the episodes, weight 0.6) and ``challenge`` (6–8
+rooms with more clutter, two or three clauses, always an exception, weight 0.4), as in
+equation (2); ``dev`` is the public getting-started level (exact all-round perception,
+one-clause templates, exceptions that show themselves).
 Files: ``world_model.json`` and ``episode_log.jsonl``, both required. Score: equation (1),
 see ``_score``. Leaderboard: Table IV's columns; ties by task success, model verification,
 recovery, invalid actions, runtime.
@@ -16,11 +20,12 @@ from pathlib import Path
 from typing import Any
 
 from plugins._base import Column, FileRule, Scenario, ScoringInput, TrackPlugin
+from plugins._errors import PluginError
 from plugins.track1 import _score
 from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, Track1Episode
-from plugins.track1._scenario import check_params, scenario_params
+from plugins.track1._scenario import build_scenario
 from schemas import EpisodeResult, ScoreCard, WorldModel
-from simhost._episode import StageSpec, TrackEpisode
+from simhost import StageSpec, TrackEpisode
 
 
 class Track1(TrackPlugin):
@@ -32,8 +37,10 @@ class Track1(TrackPlugin):
         "episode_log.jsonl": FileRule(None, jsonl=True),
     }
     splits = {
-        "standard": (0.6, {"rooms": [3, 5], "exception_probability": 0.5}),
-        "challenge": (0.4, {"rooms": [6, 8], "exception_probability": 1.0}),
+        "standard": (0.6, {"exception_probability": 0.5, "goals": [2, 2]}),
+        "challenge": (0.4, {"exception_probability": 1.0, "goals": [2, 3]}),
+        "dev": (1.0, {"exception_probability": 0.5, "goals": [1, 1], "language": "templates",
+                      "step_budgets": False}),
     }
     columns = (
         Column("standard", "Std."),
@@ -63,13 +70,14 @@ class Track1(TrackPlugin):
                       "send done when finished"),
         ]
 
-    def make_scenario(
-        self, *, seed: int, split: str, params: Mapping[str, Any], index: int | None = None
-    ) -> Scenario:
-        merged = {**self.splits.get(split, (1.0, {}))[1], **params}
-        check_params(merged)
+    def make_scenario(self, *, seed: int, split: str, params: Mapping[str, Any],
+                      index: int | None = None) -> Scenario:
+        if split not in self.splits:
+            raise PluginError(f"track1: unknown split {split!r}; one of {sorted(self.splits)}")
+        merged = {**self.splits[split][1], **params}
+        spec = build_scenario(seed, split, merged)
         return Scenario(track=self.name, split=split, seed=seed,
-                        params=scenario_params(seed, merged))
+                        params=spec.model_dump(mode="json"))
 
     def make_episode(self, scenario: Scenario) -> TrackEpisode:
         return Track1Episode(scenario)

@@ -3,7 +3,8 @@
 Light on import: the generator, layouts, tasks, vocabularies and top-down pictures need only
 numpy and pydantic. ``HouseEnv``, ``House`` and ``HouseSim`` load MuJoCo (and set
 ``MUJOCO_GL=egl`` unless already set) on first access. Importing this package registers
-``eagc/House-v0`` and ``eagc/HouseChallenge-v0`` with Gymnasium.
+``eagc/HouseDev-v0``, ``eagc/House-v0`` and ``eagc/HouseChallenge-v0`` (one per split of
+``SPLITS``) with Gymnasium.
 
     >>> from simhost.track1 import HouseEnv, make_action
     >>> env = HouseEnv()
@@ -21,6 +22,8 @@ from ._catalogue import (
     AFFORDANCES,
     CATEGORIES,
     COLOURS,
+    CONFUSABLE,
+    CONFUSABLE_COLOURS,
     KINDS,
     MAX_IDS,
     MAX_ROOMS,
@@ -42,9 +45,28 @@ from ._errors import (
 from ._generate import generate_house
 from ._graph import doors_on_path, is_two_edge_connected, shortest_room_path
 from ._layout import Door, Furniture, HouseLayout, HouseParams, Item, Room, Wall
-from ._register import CHALLENGE_ENV_ID, ENV_ID, register_envs
+from ._register import CHALLENGE_ENV_ID, DEV_ENV_ID, ENV_ID, ENV_IDS, register_envs
+from ._splits import SPLITS, HouseSplit, house_split
 from ._task import HouseTask
-from ._topdown import render_topdown, write_png
+from ._topdown import (
+    TOPDOWN_LEGEND,
+    TOPDOWN_MARGIN,
+    TOPDOWN_SCALE,
+    draw_text,
+    render_topdown,
+    write_png,
+)
+from ._truth import (
+    AffordanceTruth,
+    ConnectionTruth,
+    DoorTruth,
+    FurnitureTruth,
+    HouseTruth,
+    ObjectTruth,
+    RobotTruth,
+    RoomTruth,
+    ToolTruth,
+)
 from ._world import WorldState, ground_truth
 
 if TYPE_CHECKING:
@@ -63,7 +85,7 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def initial_ground_truth(layout: HouseLayout) -> dict[str, Any]:
+def initial_ground_truth(layout: HouseLayout) -> HouseTruth:
     """Ground truth of a layout's initial state (no MuJoCo needed; robot at the start)."""
     return ground_truth(layout, WorldState.initial(layout), layout.start, (0.0, 0.0, 0.0))
 
@@ -76,19 +98,31 @@ __all__ = [
     "CATEGORIES",
     "CHALLENGE_ENV_ID",
     "COLOURS",
+    "CONFUSABLE",
+    "CONFUSABLE_COLOURS",
+    "DEV_ENV_ID",
     "ENV_ID",
+    "ENV_IDS",
     "KINDS",
     "MAX_IDS",
     "MAX_ROOMS",
     "PRIMITIVES",
     "REASONS",
     "ROOM_TYPES",
+    "SPLITS",
     "STATES",
+    "TOPDOWN_LEGEND",
+    "TOPDOWN_MARGIN",
+    "TOPDOWN_SCALE",
     "ActionResult",
+    "AffordanceTruth",
     "ConfigError",
+    "ConnectionTruth",
     "Door",
+    "DoorTruth",
     "Furniture",
     "FurnitureSpec",
+    "FurnitureTruth",
     "House",
     "HouseEnv",
     "HouseEnvConfig",
@@ -96,20 +130,28 @@ __all__ = [
     "HouseLayout",
     "HouseParams",
     "HouseSim",
+    "HouseSplit",
     "HouseTask",
+    "HouseTruth",
     "Item",
     "ItemSpec",
     "LayoutError",
+    "ObjectTruth",
     "PerturbationError",
+    "RobotTruth",
     "Room",
     "RoomFurniture",
+    "RoomTruth",
     "StateError",
     "TaskError",
+    "ToolTruth",
     "Wall",
     "WorldState",
     "doors_on_path",
+    "draw_text",
     "generate_house",
     "ground_truth",
+    "house_split",
     "initial_ground_truth",
     "is_two_edge_connected",
     "make_action",

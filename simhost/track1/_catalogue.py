@@ -297,6 +297,17 @@ DEFAULT_ROOM_FURNITURE: dict[str, RoomFurniture] = {
     ),
 }
 
+SEMANTIC_ROOM_ITEMS: dict[str, tuple[str, ...]] = {
+    "kitchen": ("apple", "bread", "mug", "plate", "bowl", "bottle"),
+    "living_room": ("book", "plant", "mug", "bowl"),
+    "bedroom": ("book", "towel", "plant"),
+    "bathroom": ("towel", "bottle"),
+    "hallway": ("plant", "book"),
+    "storage": ("bottle", "towel", "plate"),
+}
+"""Object categories each room type tends to hold (the official splits weight them, so that
+a house is as regular as a real one and priors learned offline carry over)."""
+
 DEFAULT_OPTIONAL_ROOMS: tuple[str, ...] = ("bedroom", "bathroom", "hallway", "bedroom", "bathroom")
 """Room types added, without replacement and in a seeded order, beyond the three required
 ones (kitchen, living_room, storage)."""
@@ -311,6 +322,48 @@ ROOM_FLOOR_RGBA: dict[str, tuple[float, float, float, float]] = {
     "hallway": (0.82, 0.82, 0.82, 1.0),
     "storage": (0.70, 0.70, 0.66, 1.0),
 }
+
+CONFUSABLE: dict[str, tuple[str, ...]] = {
+    "table": ("desk",),
+    "desk": ("table",),
+    "counter": ("table",),
+    "bed": ("sofa",),
+    "sofa": ("bed",),
+    "shelf": ("table",),
+    "cabinet": ("drawer",),
+    "drawer": ("cabinet",),
+    "fridge": ("cabinet",),
+    "bin": ("drawer",),
+    "mug": ("bowl", "bottle"),
+    "bowl": ("mug", "plate"),
+    "plate": ("bowl",),
+    "book": ("towel",),
+    "towel": ("book",),
+    "bottle": ("mug",),
+    "apple": ("bread",),
+    "bread": ("apple",),
+    "plant": ("bottle",),
+    "sponge": ("cloth",),
+    "cloth": ("sponge",),
+    "knife": ("scissors",),
+    "scissors": ("knife",),
+    "watering_can": ("jug",),
+    "jug": ("watering_can",),
+}
+"""Look-alike categories a detector may report instead (always of the same kind); doors are
+never confused."""
+
+CONFUSABLE_COLOURS: dict[str, tuple[str, ...]] = {
+    "red": ("orange",),
+    "orange": ("red", "yellow"),
+    "yellow": ("orange", "white"),
+    "white": ("yellow",),
+    "blue": ("purple",),
+    "purple": ("blue",),
+    "green": ("yellow",),
+    "black": ("blue",),
+}
+"""Look-alike colours a detector may report instead."""
 
 MAX_IDS = 256
 """Instance ids are in ``[1, MAX_IDS)``; 0 is never an instance id."""

@@ -1,10 +1,19 @@
-"""Options of the Track 1 environment, grouped in one frozen model."""
+"""Options of the Track 1 environment, grouped in one frozen model.
+
+Sensing is what a robot has on the official splits: a forward field of view and range (line
+of sight as before), position noise growing with distance, missed detections, some
+category and colour confusion, odometry drift, the room read from a sign when the robot
+enters it, and exceptions that show only through their effects. The ``dev`` split keeps
+exact, all-round perception (every knob at its default). Every random draw comes from a
+generator keyed by the episode's noise seed and the step count, so the same seed and the
+same actions give the same observations.
+"""
 
 from __future__ import annotations
 
 import difflib
 import math
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -21,15 +30,42 @@ class HouseEnvConfig(BaseModel):
     scan_range: float = Field(8.0, gt=0)
     """Range of the scan (metres); a ray that hits nothing reads this."""
     sensing_range: float = Field(6.0, gt=0)
-    """Detection range (metres, horizontal)."""
-    max_detections: int = Field(32, ge=1, le=256)
-    """Rows of the fixed-size detection arrays (the nearest are kept)."""
+    """Detection range (metres, horizontal) of doors, furniture and containers."""
+    item_range: float | None = Field(None, gt=0)
+    """Detection range of objects and tools (small things), when shorter than
+    ``sensing_range``; None: the same."""
+    field_of_view: float = Field(360.0, gt=0, le=360)
+    """Detection field of view (degrees, centred straight ahead); 360 is all-round."""
+    position_noise: tuple[float, float] = (0.0, 0.0)
+    """Standard deviation of a detection's position error, ``a + b * distance`` (metres),
+    drawn independently at every step."""
+    miss_rate: tuple[float, float] = (0.0, 0.0)
+    """Chance that a visible item goes undetected at a step, ``a + b * distance`` (capped at
+    0.9); a third of it for doors, furniture and containers."""
+    category_confusion: float = Field(0.0, ge=0, le=0.5)
+    """Chance that a detection reports a look-alike category (``CONFUSABLE``), half of it for
+    furniture and containers; drawn at every step, so looking again helps."""
+    colour_confusion: float = Field(0.0, ge=0, le=0.5)
+    """Chance that a detection reports a look-alike colour (``CONFUSABLE_COLOURS``)."""
+    odometry_noise: tuple[float, float] = (0.0, 0.0)
+    """Odometry drift: standard deviation of the translation error per metre driven (along
+    and across), and of the heading error per radian turned (plus a fifth of it per metre
+    driven). The error accumulates; ``odometry`` is the drifting estimate."""
+    room_sign: Literal["always", "on_entry"] = "always"
+    """``always``: ``room``/``room_type`` give the current room at every step. ``on_entry``:
+    only at reset and at the step the robot enters another room (a sign by the doorway);
+    -1 otherwise."""
+    reveal_exceptions: bool = True
+    """True: a locked door shows ``locked`` (its lamp turns red) and an unavailable container
+    shows ``unavailable`` (grey, shut). False: both look as before and fail when used."""
     reach: float = Field(1.3, gt=0)
     """Reach to an item's centre (pick, use on an item)."""
     furniture_reach: float = Field(0.8, gt=0)
     """Reach to a furniture or container footprint (open, close, place, use)."""
     door_reach: float = Field(1.5, gt=0)
     """Reach to a doorway's centre (open, close)."""
+    max_detections: int = Field(32, ge=1, le=256)
+    """Rows of the fixed-size detection arrays (the nearest are kept)."""
     max_forward: float = Field(0.5, gt=0)
     """Metres moved by ``move`` with forward = 1."""
     max_turn: float = Field(math.pi / 4, gt=0)
@@ -46,6 +82,17 @@ class HouseEnvConfig(BaseModel):
     """(width, height) of the images."""
     failure_penalty: float = 0.01
     """Reward subtracted for a failed action when a task is set."""
+
+    @property
+    def exact(self) -> bool:
+        """True when detections and odometry carry no noise at all."""
+        return (
+            self.position_noise == (0.0, 0.0)
+            and self.miss_rate == (0.0, 0.0)
+            and self.category_confusion == 0.0
+            and self.colour_confusion == 0.0
+            and self.odometry_noise == (0.0, 0.0)
+        )
 
     @classmethod
     def from_overrides(

@@ -15,10 +15,14 @@ from ._config import HouseEnvConfig
 from ._generate import generate_house
 from ._house import House
 from ._layout import HouseLayout, HouseParams
+from ._splits import HouseSplit, house_split
 from ._task import HouseTask
 from ._topdown import render_topdown
+from ._truth import HouseTruth
 
 _SEED_SPACE = 2**31 - 1
+_MAX_DEPTH = 100.0
+"""Depth (m) reported where the camera sees nothing within the far plane."""
 
 
 class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
@@ -26,9 +30,12 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
 
     Args:
         layout: a fixed house; if None, ``reset(seed=...)`` generates one from the seed.
-        params: generator parameters when the layout is not fixed.
-        config: sensing, control and rendering options; keyword ``options`` override fields
-            (e.g. ``render_rgbd=True, image_size=(64, 48)``).
+        split: ``"dev"``, ``"standard"`` or ``"challenge"`` (or a ``HouseSplit``): the
+            houses and the sensing of that split (default: ``dev``'s sensing, and the
+            houses of ``params``).
+        params: generator parameters when the layout is not fixed (replaces the split's).
+        config: sensing, control and rendering options (replaces the split's); keyword
+            ``options`` override fields (e.g. ``render_rgbd=True, image_size=(64, 48)``).
         render_mode: None or ``"rgb_array"`` (a top-down picture).
     """
 
@@ -38,6 +45,7 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         self,
         layout: HouseLayout | None = None,
         *,
+        split: str | HouseSplit | None = None,
         params: HouseParams | None = None,
         config: HouseEnvConfig | None = None,
         render_mode: str | None = None,
@@ -45,8 +53,10 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
     ) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.config = HouseEnvConfig.from_overrides(config, options)
-        self.params = params or HouseParams()
+        preset = house_split(split) if isinstance(split, str) else split
+        base = config or (preset.config if preset is not None else None)
+        self.config = HouseEnvConfig.from_overrides(base, options)
+        self.params = params or (preset.params if preset is not None else HouseParams())
         self.render_mode = render_mode
         self._fixed = layout
         self.house: House | None = House(layout, self.config) if layout is not None else None
@@ -64,7 +74,8 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
 
     def _observation_space(self) -> spaces.Dict:
         cfg, k = self.config, self.config.max_detections
-        big = cfg.sensing_range + 1.0
+        big = cfg.sensing_range + 1.0 + 6 * (cfg.position_noise[0] + cfg.position_noise[1]
+                                             * cfg.sensing_range)
 
         def ints(lo: int, hi: int, shape: tuple[int, ...], dtype: Any = np.int32) -> spaces.Box:
             return spaces.Box(lo, hi, shape, dtype)
@@ -92,7 +103,7 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         if cfg.render_rgbd:
             w, h = cfg.image_size
             obs["rgb"] = spaces.Box(0, 255, (h, w, 3), np.uint8)
-            obs["depth"] = spaces.Box(0.0, 100.0, (h, w), np.float32)
+            obs["depth"] = spaces.Box(0.0, _MAX_DEPTH, (h, w), np.float32)
             obs["segmentation"] = ints(-1, MAX_IDS - 1, (h, w))
         return spaces.Dict(list(obs.items()))
 
@@ -111,7 +122,8 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Start an episode. Without a fixed layout, ``seed`` selects the house (same seed,
-        same house); with ``seed=None`` the next house comes from the env's seeded RNG.
+        same house); with ``seed=None`` the next house comes from the env's seeded RNG. The
+        seed also keys the sensors' noise (same seed and actions, same observations).
 
         ``options``: ``{"task": HouseTask | dict}`` sets the task of the shaped reward.
         """
@@ -123,13 +135,15 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         if self._fixed is None:
             house_seed = seed if seed is not None else int(self.np_random.integers(_SEED_SPACE))
             if self.house is not None and self.house.layout.seed == house_seed:
-                self.house.reset()
+                self.house.reset(house_seed)
             else:
                 if self.house is not None:
                     self.house.sim.close()
-                self.house = House(generate_house(house_seed, params=self.params), self.config)
+                self.house = House(generate_house(house_seed, params=self.params), self.config,
+                                   noise_seed=house_seed)
         else:
-            self._house().reset()
+            noise = seed if seed is not None else int(self.np_random.integers(_SEED_SPACE))
+            self._house().reset(noise)
         house = self._house()
         task = options.get("task")
         self.task = HouseTask.parse(task, house.layout) if task is not None else None
@@ -160,6 +174,11 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         terminated = result.primitive == "done" and result.ok
         return self._observation(), reward, terminated, False, self._info()
 
+    def observe(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """The observation and info of the current state, without stepping (e.g. after a
+        perturbation); the sensors' draws are those of the current step."""
+        return self._observation(), self._info()
+
     def render(self) -> np.ndarray | None:  # type: ignore[override]
         """A top-down picture when ``render_mode="rgb_array"``."""
         if self.render_mode != "rgb_array":
@@ -174,8 +193,8 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
     # ----------------------------------------------------------------- observations
     def _observation(self) -> dict[str, np.ndarray]:
         house, cfg, k = self._house(), self.config, self.config.max_detections
-        x, y, yaw = house.robot_pose
-        room = house.robot_room
+        x, y, yaw = house.odometry
+        room = house.room_sign()
         dets = house.detections()[:k]
         n = len(dets)
         obs = {
@@ -183,7 +202,8 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
             "range_scan": house.sim.range_scan(cfg.scan_rays, cfg.scan_range),
             "room": np.array([room], dtype=np.int32),
             "room_type": np.array(
-                [ROOM_TYPES.index(house.layout.rooms[room].type)], dtype=np.int32
+                [ROOM_TYPES.index(house.layout.rooms[room].type) if room >= 0 else -1],
+                dtype=np.int32,
             ),
             "held": np.array([house.world.held], dtype=np.int32),
             "last_action_ok": np.array([int(self._last.ok)], dtype=np.int8),
@@ -203,15 +223,17 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
             obs["det_category"][:n] = [CATEGORIES.index(d.category) for d in dets]
             obs["det_colour"][:n] = [COLOURS.index(d.colour) for d in dets]
             obs["det_state"][:n] = [STATES.index(d.state) for d in dets]
-            obs["det_rel_pos"][:n] = [d.rel_pos for d in dets]
+            high = self.observation_space["det_rel_pos"].high[0, 0]
+            obs["det_rel_pos"][:n] = np.clip([d.rel_pos for d in dets], -high, high)
         if cfg.render_rgbd:
             w, h = cfg.image_size
-            obs["rgb"], obs["depth"], obs["segmentation"] = house.sim.render_rgbd(w, h)
+            obs["rgb"], depth, obs["segmentation"] = house.sim.render_rgbd(w, h)
+            obs["depth"] = np.minimum(depth, np.float32(_MAX_DEPTH))  # no hit: the far plane
         return obs
 
     def _info(self) -> dict[str, Any]:
         house = self._house()
-        room = house.robot_room
+        room = house.room_sign()
         info: dict[str, Any] = {
             "action_result": {
                 "ok": self._last.ok,
@@ -220,7 +242,7 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
             },
             "collided": self._last.collided,
             "detections": [d.to_dict() for d in house.detections()],
-            "room": {"id": room, "type": house.layout.rooms[room].type},
+            "room": {"id": room, "type": house.layout.rooms[room].type if room >= 0 else None},
             "held": house.world.held,
             "step": house.world.steps,
             "sim_warnings": house.sim.warnings(),
@@ -230,20 +252,23 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         return info
 
     # ----------------------------------------------------------------- organizer API
-    def ground_truth(self) -> dict[str, Any]:
-        """Organizer-only ground truth (JSON-serialisable); never send it to the agent."""
+    def ground_truth(self) -> HouseTruth:
+        """Organizer-only ground truth; never send it to the agent."""
         return self._house().ground_truth()
 
     def lock_door(self, door_id: int) -> dict[str, Any]:
         """Close and lock a door; returns an event dict. Raises PerturbationError."""
         return self._house().lock_door(door_id)
 
-    def relocate_object(self, object_id: int, room_id: int | None = None) -> dict[str, Any]:
-        """Move an item to a room (default: the backup area); returns an event dict."""
-        return self._house().relocate_object(object_id, room_id)
+    def relocate_object(
+        self, object_id: int, room_id: int | None = None, *, receptacle: int | None = None
+    ) -> dict[str, Any]:
+        """Move an item to a room (default: the backup area) or into a given receptacle;
+        returns an event dict."""
+        return self._house().relocate_object(object_id, room_id, receptacle=receptacle)
 
     def make_container_unavailable(self, container_id: int) -> dict[str, Any]:
-        """Shut a container for good; returns an event dict."""
+        """Make a container unusable for good; returns an event dict."""
         return self._house().make_container_unavailable(container_id)
 
     def remove_tool(self, tool_id: int) -> dict[str, Any]:

@@ -9,6 +9,7 @@ else the furniture is drawn again from the same generator.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -58,6 +59,7 @@ def place_furniture(
         if mix is None:
             continue
         k = int(rng.integers(mix.optional_count[0], mix.optional_count[1] + 1))
+        k += params.furniture_extra
         optional = [mix.optional[i] for i in rng.permutation(len(mix.optional))][:k]
         zones = _door_zones(plan, room)
         placed: list[Piece] = []
@@ -256,8 +258,11 @@ def place_items(
     items: list[Item] = []
     objects = [s for s in params.items if not s.affordances]
 
-    def place(spec: ItemSpec, room: int | None, kind: str) -> bool:
-        colours = [c for c in spec.colours if (spec.category, c) not in slots.used]
+    def place(spec: ItemSpec, room: int | None, kind: str, twin: str | None = None) -> bool:
+        if twin is None:
+            colours = [c for c in spec.colours if (spec.category, c) not in slots.used]
+        else:
+            colours = [twin]
         recs = slots.receptacles(furniture, room, spec)
         if not colours or not recs:
             return False
@@ -289,8 +294,16 @@ def place_items(
 
     for room in rooms:
         k = int(rng.integers(params.objects_per_room[0], params.objects_per_room[1] + 1))
+        liked = params.room_items.get(room.type, ())
+        weights = np.array([params.room_item_weight if s.category in liked else 1.0
+                            for s in objects])
         for _ in range(k):
-            for i in rng.permutation(len(objects)).tolist():
+            if liked:
+                order = rng.choice(len(objects), size=len(objects), replace=False,
+                                   p=weights / weights.sum()).tolist()
+            else:
+                order = rng.permutation(len(objects)).tolist()
+            for i in order:
                 if place(objects[i], room.id, "object"):
                     break
     for aff in AFFORDANCES:
@@ -316,4 +329,36 @@ def place_items(
         for i in rng.permutation(len(specs)).tolist():
             if place(specs[i], None, "object"):
                 break
+    if params.distractors[1] > 0:
+        _add_twins(rng, params, rooms, furniture, items, place)
     return items
+
+
+def _add_twins(
+    rng: np.random.Generator,
+    params: HouseParams,
+    rooms: tuple[Room, ...],
+    furniture: list[Furniture],
+    items: list[Item],
+    place: Callable[[ItemSpec, int | None, str, str | None], bool],
+) -> None:
+    """Look-alikes: objects of the category and colour of one already placed, each in a room
+    where neither it nor another look-alike of it is."""
+    where = {f.id: f.room for f in furniture}
+    specs = {s.category: s for s in params.items}
+    n = int(rng.integers(params.distractors[0], params.distractors[1] + 1))
+    for _ in range(n):
+        originals = [i for i in items if i.kind == "object"]
+        order = rng.permutation(len(originals)).tolist()
+        for k in order:
+            src = originals[k]
+            taken = {where[i.receptacle] for i in items
+                     if (i.category, i.colour) == (src.category, src.colour)}
+            others = [r.id for r in rooms if r.id not in taken]
+            placed = False
+            for j in rng.permutation(len(others)).tolist():
+                if place(specs[src.category], others[j], "object", src.colour):
+                    placed = True
+                    break
+            if placed:
+                break

@@ -22,9 +22,11 @@ from ._errors import PerturbationError, StateError
 from ._graph import doors_on_path, shortest_room_path
 from ._layout import Door, Furniture, HouseLayout, Item
 from ._mjcf import ROBOT_RADIUS
+from ._perception import drift, perceive
 from ._sensors import Detection, detect, footprint_distance, robot_blocks
 from ._sim import HouseSim
 from ._task import HouseTask, task_blockers, task_satisfied
+from ._truth import HouseTruth
 from ._world import WorldState, ground_truth
 
 _MAGIC = b"EAGCT1\x00\x00"
@@ -33,20 +35,28 @@ _MAGIC = b"EAGCT1\x00\x00"
 class House:
     """One house, simulated: the rules of Track 1's world."""
 
-    def __init__(self, layout: HouseLayout, config: HouseEnvConfig | None = None) -> None:
+    def __init__(
+        self, layout: HouseLayout, config: HouseEnvConfig | None = None, *, noise_seed: int = 0
+    ) -> None:
         self.layout = layout
         self.config = config or HouseEnvConfig()
         self.sim = HouseSim(layout, offscreen=self.config.image_size)
+        self.sim.reveal_exceptions = self.config.reveal_exceptions
         self.world = WorldState.initial(layout)
         self._digest = bytes.fromhex(layout.digest())
+        self._visible: list[Detection] | None = None
         self._detections: list[Detection] | None = None
-        self.reset()
+        self.reset(noise_seed)
 
-    def reset(self) -> None:
-        """Back to the layout's initial state."""
+    def reset(self, noise_seed: int | None = None) -> None:
+        """Back to the layout's initial state; ``noise_seed`` keys the sensors' draws
+        (default: the layout's seed)."""
         self.world = WorldState.initial(self.layout)
+        self.world.noise_seed = self.layout.seed if noise_seed is None else int(noise_seed)
+        self.world.odometry = self.layout.start
+        self.world.sign_room = self.layout.start_room
         self.sim.reset(self.world, self.layout.start)
-        self._detections = None
+        self._changed()
 
     # ----------------------------------------------------------------- perception
     @property
@@ -60,13 +70,39 @@ class House:
         x, y, _ = self.sim.robot_pose()
         return self.layout.room_at(x, y)
 
+    def visible(self) -> list[Detection]:
+        """Every entity in view now with its exact attributes, nearest first (cached until
+        the world changes). What the robot can act on."""
+        if self._visible is None:
+            cfg = self.config
+            self._visible = detect(self.layout, self.world, self.sim, cfg.sensing_range,
+                                   cfg.field_of_view, reveal=cfg.reveal_exceptions,
+                                   item_range=cfg.item_range)
+        return self._visible
+
     def detections(self) -> list[Detection]:
-        """Visible entities now, nearest first (cached until the world changes)."""
+        """What the detector reports now: the visible entities after misses, position noise
+        and confusion (``_perception``), nearest first."""
         if self._detections is None:
-            self._detections = detect(self.layout, self.world, self.sim, self.config.sensing_range)
+            self._detections = perceive(self.visible(), self.config, self.world.noise_seed,
+                                        self.world.steps)
         return self._detections
 
+    @property
+    def odometry(self) -> tuple[float, float, float]:
+        """The robot's pose as its odometry has it (x, y, yaw)."""
+        x, y, yaw = self.world.odometry
+        return (x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
+
+    def room_sign(self) -> int:
+        """The room the robot knows it is in now: always the current room with
+        ``room_sign="always"``; else the room whose sign it read at this step, or -1."""
+        if self.config.room_sign == "always":
+            return self.robot_room
+        return self.world.sign_room if self.world.sign_step == self.world.steps else -1
+
     def _changed(self) -> None:
+        self._visible = None
         self._detections = None
 
     def in_reach(self, entity_id: int) -> bool:
@@ -109,6 +145,11 @@ class House:
         else:
             result = ActionResult(primitive, False, "invalid_action")
         self.world.steps += 1
+        room = self.robot_room
+        if room != self.world.sign_room:
+            self.world.sign_room, self.world.sign_step = room, self.world.steps
+        if self.config.odometry_noise == (0.0, 0.0):
+            self.world.odometry = self.sim.robot_pose()
         self._changed()
         return result
 
@@ -119,7 +160,7 @@ class House:
     def _target_check(self, primitive: str, target: int) -> ActionResult | None:
         if self.layout.entity(target) is None:
             return ActionResult(primitive, False, "unknown_id")
-        if target not in {d.id for d in self.detections()}:
+        if target not in {d.id for d in self.visible()}:
             return ActionResult(primitive, False, "not_visible")
         if not self.in_reach(target):
             return ActionResult(primitive, False, "out_of_reach")
@@ -153,6 +194,8 @@ class House:
                 sim.place_item_mocap(self.world, self.world.held)
         sim.wrap_yaw()
         sim.forward()
+        self.world.odometry = drift(self.world.odometry, (x0, y0, th0), sim.robot_pose(),
+                                    cfg, self.world.noise_seed, self.world.steps)
         return ActionResult("move", True, "collided" if collided else "", collided)
 
     def _open_close(self, primitive: str, target: int) -> ActionResult:
@@ -197,6 +240,8 @@ class House:
             return bad
         if self.layout.kind_of(target) not in ("object", "tool"):
             return ActionResult("pick", False, "not_pickable")
+        if self.world.places[target][0] in self.world.unavailable:
+            return ActionResult("pick", False, "unavailable")
         del self.world.places[target]
         self.world.held = target
         self.sim.place_item_mocap(self.world, target)
@@ -247,6 +292,7 @@ class House:
         if condition == after:
             return ActionResult("use", False, "no_effect")
         self.world.conditions[target] = after
+        self.world.used_by[target] = tool
         self._run(self.config.action_steps)
         return ActionResult("use", True)
 
@@ -266,7 +312,8 @@ class House:
         return self.layout.entity(entity_id)
 
     def lock_door(self, door_id: int) -> dict[str, Any]:
-        """Close and lock a door (its indicator turns red; detections show ``locked``)."""
+        """Close and lock a door. With ``reveal_exceptions`` its indicator turns red and
+        detections show ``locked``; else it looks closed until ``open`` fails."""
         door = self._entity(door_id, ("door",))
         before = self.world.doors[door_id]
         if before == "locked":
@@ -280,23 +327,36 @@ class House:
         self.sim.set_door(door, "locked")
         return self._perturbed({"kind": "door_lock", "door": door_id, "previous": before})
 
-    def relocate_object(self, object_id: int, room_id: int | None = None) -> dict[str, Any]:
+    def relocate_object(
+        self, object_id: int, room_id: int | None = None, *, receptacle: int | None = None
+    ) -> dict[str, Any]:
         """Move an object or tool onto a free surface (else an open container) in a room
-        (default: the backup room)."""
+        (default: the backup room), or into a given receptacle (a container's lid does not
+        matter then: the item is put inside, and the container keeps its state)."""
         self._entity(object_id, ("object", "tool"))
-        room = self.layout.backup_room if room_id is None else room_id
-        if not 0 <= room < len(self.layout.rooms):
-            raise PerturbationError(
-                f"room {room} does not exist (rooms 0..{len(self.layout.rooms) - 1})"
-            )
         if object_id == self.world.held or object_id in self.world.removed:
             raise PerturbationError(f"item {object_id} is held or removed; relocate another one")
-        here = [f for f in self.layout.furniture if f.room == room]
-        order = [f for f in here if f.kind == "furniture"]
-        order += [
-            f for f in here if f.kind == "container" and self.world.container_state(f.id) == "open"
-        ]
         previous = self.world.places[object_id]
+        if receptacle is not None:
+            f = self._entity(receptacle, ("furniture", "container"))
+            if receptacle == previous[0] or receptacle in self.world.unavailable:
+                raise PerturbationError(
+                    f"receptacle {receptacle} is the item's own or unavailable; choose another"
+                )
+            order = [f]
+            room = f.room
+        else:
+            room = self.layout.backup_room if room_id is None else room_id
+            if not 0 <= room < len(self.layout.rooms):
+                raise PerturbationError(
+                    f"room {room} does not exist (rooms 0..{len(self.layout.rooms) - 1})"
+                )
+            here = [f for f in self.layout.furniture if f.room == room]
+            order = [f for f in here if f.kind == "furniture"]
+            order += [
+                f for f in here
+                if f.kind == "container" and self.world.container_state(f.id) == "open"
+            ]
         for f in order:
             if f.id == previous[0]:
                 continue
@@ -313,17 +373,21 @@ class House:
                         "previous_receptacle": previous[0],
                     }
                 )
-        raise PerturbationError(f"room {room} has no free surface for item {object_id}")
+        where = f"receptacle {receptacle}" if receptacle is not None else f"room {room}"
+        raise PerturbationError(f"{where} has no free place for item {object_id}")
 
     def make_container_unavailable(self, container_id: int) -> dict[str, Any]:
-        """Shut a container for good: it cannot be opened, placed into or taken from."""
+        """Make a container unusable for good: it cannot be opened, closed, placed into or
+        taken from. With ``reveal_exceptions`` it is shut and shows ``unavailable``; else it
+        stays as it looks and fails when used."""
         f = self._entity(container_id, ("container",))
         if container_id in self.world.unavailable:
             raise PerturbationError(f"container {container_id} is already unavailable")
         previous = self.world.containers[container_id]
         self.world.unavailable.add(container_id)
-        self.world.containers[container_id] = "closed"
-        self.sim.set_lid(f, False)
+        if self.config.reveal_exceptions:
+            self.world.containers[container_id] = "closed"
+            self.sim.set_lid(f, False)
         return self._perturbed(
             {"kind": "container_unavailable", "container": container_id, "previous": previous}
         )
@@ -361,11 +425,12 @@ class House:
         if self.world.held >= 0:
             self.sim.place_item_mocap(self.world, self.world.held)
             self.sim.forward()
+        self.world.odometry = (x, y, yaw)
         self._changed()
 
     # ----------------------------------------------------------------- truth and paths
-    def ground_truth(self) -> dict[str, Any]:
-        """Organizer-only ground truth (JSON-serialisable); see ``ground_truth`` in _world."""
+    def ground_truth(self) -> HouseTruth:
+        """Organizer-only ground truth (see ``HouseTruth``)."""
         return ground_truth(self.layout, self.world, self.sim.robot_pose(), self.sim.hand_pose()[0])
 
     def shortest_path(

@@ -13,7 +13,7 @@ import math
 from functools import cached_property
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ._catalogue import (
     AFFORDANCES,
@@ -28,6 +28,7 @@ from ._catalogue import (
     OBJECT_CATEGORIES,
     REQUIRED_ROOMS,
     ROOM_TYPES,
+    SEMANTIC_ROOM_ITEMS,
     STATES,
     TOOL_CATEGORIES,
     FurnitureSpec,
@@ -69,6 +70,16 @@ class HouseParams(BaseModel):
     p_keep_door: float = 0.4
     """Chance to keep a door that the 2-edge-connected door graph does not need."""
     door_width: float = 1.0
+    distractors: tuple[int, int] = (0, 0)
+    """Inclusive range of look-alike objects added: each repeats the category and colour of
+    an object already placed, in another room (so "the red mug in the kitchen" still names
+    one). Zero keeps every (category, colour) unique."""
+    room_items: dict[str, tuple[str, ...]] = {}
+    """Object categories each room type tends to hold; each is drawn ``room_item_weight``
+    times as often as another there. Empty: every category alike (the dev split)."""
+    room_item_weight: float = Field(6.0, ge=1.0)
+    furniture_extra: int = Field(0, ge=0, le=3)
+    """Optional furniture pieces tried per room beyond each room type's ``optional_count``."""
     furniture: tuple[FurnitureSpec, ...] = DEFAULT_FURNITURE
     items: tuple[ItemSpec, ...] = DEFAULT_ITEMS
     room_furniture: dict[str, RoomFurniture] = DEFAULT_ROOM_FURNITURE
@@ -76,14 +87,22 @@ class HouseParams(BaseModel):
     """Room types beyond kitchen, living_room and storage, drawn without replacement."""
 
     @classmethod
-    def standard(cls) -> HouseParams:
-        """The standard split: 3-5 rooms."""
+    def dev(cls) -> HouseParams:
+        """The public dev split's houses: 3-5 rooms, every (category, colour) unique."""
         return cls()
 
     @classmethod
+    def standard(cls) -> HouseParams:
+        """The standard split's houses: 3-5 rooms, look-alike objects, more of them closed
+        away in containers."""
+        return cls(distractors=(1, 2), p_in_container=0.5, p_container_open=0.15,
+                   room_items=SEMANTIC_ROOM_ITEMS)
+
+    @classmethod
     def challenge(cls) -> HouseParams:
-        """The challenge split: 6-8 rooms."""
-        return cls(rooms=(6, 8))
+        """The challenge split's houses: 6-8 rooms, more clutter and look-alikes."""
+        return cls(rooms=(6, 8), objects_per_room=(2, 4), distractors=(2, 4), furniture_extra=1,
+                   p_in_container=0.5, p_container_open=0.15, room_items=SEMANTIC_ROOM_ITEMS)
 
     @model_validator(mode="after")
     def _check(self) -> HouseParams:
@@ -93,6 +112,8 @@ class HouseParams(BaseModel):
             raise ValueError(f"rooms must satisfy 3 <= lo <= hi <= {most}, got {self.rooms}")
         if not 3.0 <= self.cell_size[0] <= self.cell_size[1] <= 8.0:
             raise ValueError(f"cell_size must satisfy 3.0 <= lo <= hi <= 8.0, got {self.cell_size}")
+        if not 0 <= self.distractors[0] <= self.distractors[1] <= 8:
+            raise ValueError(f"distractors must satisfy 0 <= lo <= hi <= 8, got {self.distractors}")
         if self.tools_per_affordance < 2:
             raise ValueError("tools_per_affordance must be >= 2 (every tool needs a substitute)")
         for name in self.optional_rooms:
@@ -111,6 +132,10 @@ class HouseParams(BaseModel):
             for cat in mix.required + mix.optional:
                 if cat not in placed:
                     raise ValueError(f"{room_type}: furniture {cat!r} has no FurnitureSpec")
+        for room_type, cats in self.room_items.items():
+            bad = [c for c in cats if c not in OBJECT_CATEGORIES]
+            if room_type not in ROOM_TYPES or bad:
+                raise ValueError(f"room_items[{room_type!r}]: unknown names {bad or room_type}")
         for item in self.items:
             vocab = TOOL_CATEGORIES if item.affordances else OBJECT_CATEGORIES
             if item.category not in vocab:

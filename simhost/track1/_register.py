@@ -1,25 +1,28 @@
-"""Gymnasium registration (no MuJoCo import: entry points are strings)."""
+"""Gymnasium registration (no MuJoCo import: entry points are strings).
+
+Each id is one split of ``SPLITS`` (its houses and its sensing), so that offline training
+sees what the evaluation shows: ``eagc/HouseDev-v0`` (the public getting-started level),
+``eagc/House-v0`` (standard) and ``eagc/HouseChallenge-v0`` (challenge).
+"""
 
 from __future__ import annotations
 
+DEV_ENV_ID = "eagc/HouseDev-v0"
+"""The dev split: 3-5 rooms, exact all-round perception."""
 ENV_ID = "eagc/House-v0"
-"""Standard split houses (3-5 rooms)."""
+"""The standard split: 3-5 rooms, a robot's perception."""
 CHALLENGE_ENV_ID = "eagc/HouseChallenge-v0"
-"""Challenge split houses (6-8 rooms)."""
+"""The challenge split: 6-8 rooms, a robot's perception."""
+
+ENV_IDS = {"dev": DEV_ENV_ID, "standard": ENV_ID, "challenge": CHALLENGE_ENV_ID}
+_STEPS = {"dev": 1000, "standard": 1000, "challenge": 1500}
 
 
 def register_envs() -> None:
-    """Register ``eagc/House-v0`` and ``eagc/HouseChallenge-v0`` (idempotent)."""
+    """Register the three Track 1 ids (idempotent)."""
     from gymnasium.envs.registration import register, registry
 
-    from ._layout import HouseParams
-
-    if ENV_ID not in registry:
-        register(id=ENV_ID, entry_point="simhost.track1._env:HouseEnv", max_episode_steps=1000)
-    if CHALLENGE_ENV_ID not in registry:
-        register(
-            id=CHALLENGE_ENV_ID,
-            entry_point="simhost.track1._env:HouseEnv",
-            max_episode_steps=1500,
-            kwargs={"params": HouseParams.challenge()},
-        )
+    for split, env_id in ENV_IDS.items():
+        if env_id not in registry:
+            register(id=env_id, entry_point="simhost.track1._env:HouseEnv",
+                     max_episode_steps=_STEPS[split], kwargs={"split": split})

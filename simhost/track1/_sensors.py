@@ -1,11 +1,13 @@
-"""What the robot perceives: visibility, detections and reach.
+"""What the robot could perceive: visibility, exact detections and reach.
 
-Visible means: within the sensing range (horizontal distance from the robot), and in line of
-sight from the robot's eye (``mj_ray`` against walls, doors, furniture and lids; items never
-occlude). The sensor is omnidirectional, so a robot sees into its room and through open
-doorways, never through walls or closed doors. An item inside a container is visible when
-the container is open (and available), the robot is on its opening side and the opening is
-in line of sight. Held and removed items are never detected.
+Visible means: within the sensing range (horizontal distance from the robot), within the
+field of view (the bearing of the entity's centre within half of it from straight ahead; 360
+degrees is all-round), and in line of sight from the robot's eye (``mj_ray`` against walls,
+doors, furniture and lids; items never occlude). So a robot sees into its room and through
+open doorways, never through walls or closed doors. An item inside a container is visible
+when the container is open, the robot is on its opening side and the opening is in line of
+sight. Held and removed items are never detected. What the detector then reports (misses,
+noise, confusion) is ``_perception``'s business.
 """
 
 from __future__ import annotations
@@ -69,7 +71,7 @@ def _points(
     assert isinstance(rec, Furniture)
     x, y, z = layout.item_position(entity, rec_id, slot)
     if rec.kind == "container":
-        if world.container_state(rec_id) != "open":
+        if world.containers[rec_id] != "open":
             return (x, y), [], entity.id
         if rec.opening == "front":
             fx, fy = rec.front
@@ -80,23 +82,39 @@ def _points(
 
 
 def detect(
-    layout: HouseLayout, world: WorldState, sim: HouseSim, sensing_range: float
+    layout: HouseLayout,
+    world: WorldState,
+    sim: HouseSim,
+    sensing_range: float,
+    field_of_view: float = 360.0,
+    *,
+    reveal: bool = True,
+    item_range: float | None = None,
 ) -> list[Detection]:
-    """Every visible entity, nearest first (ties by id)."""
+    """Every visible entity with its exact attributes, nearest first (ties by id).
+
+    ``reveal``: whether locked doors and unavailable containers show it (else they show
+    the state they seem to be in). ``item_range``: a shorter range for objects and tools.
+    """
     robot = sim.robot_pose()
     rx, ry, yaw = robot
     c, s = math.cos(yaw), math.sin(yaw)
+    half_fov = math.radians(field_of_view) / 2
     out = []
     for entity in (*layout.doors, *layout.furniture, *layout.items):
         (ex, ey), points, instance = _points(layout, world, sim, entity, robot)
         if not points:
             continue
         dist = math.hypot(ex - rx, ey - ry)
-        if dist > sensing_range:
-            continue
-        if not any(sim.line_of_sight(p, instance) for p in points):
+        if dist > (item_range if item_range and isinstance(entity, Item) else sensing_range):
             continue
         dx, dy = ex - rx, ey - ry
+        if half_fov < math.pi and dist > 1e-6:
+            bearing = math.atan2(-s * dx + c * dy, c * dx + s * dy)
+            if abs(bearing) > half_fov:
+                continue
+        if not any(sim.line_of_sight(p, instance) for p in points):
+            continue
         kind = "door" if isinstance(entity, Door) else entity.kind
         out.append(
             Detection(
@@ -105,7 +123,7 @@ def detect(
                 category="door" if isinstance(entity, Door) else entity.category,
                 colour=entity.colour if isinstance(entity, Item) else "none",
                 rel_pos=(c * dx + s * dy, -s * dx + c * dy),
-                state=world.visible_state(layout, entity.id),
+                state=world.visible_state(layout, entity.id, reveal=reveal),
                 distance=dist,
             )
         )

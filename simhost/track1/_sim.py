@@ -98,6 +98,8 @@ class HouseSim:
         self.ctrl_hi = m.actuator_ctrlrange[:, 1].copy()
         self._renderer: mujoco.Renderer | None = None
         self._ray_geom = np.zeros(1, dtype=np.int32)
+        self.reveal_exceptions = True
+        """Whether a locked door's lamp turns red and an unavailable container's lid grey."""
 
     # ----------------------------------------------------------------- state sync
     def reset(self, world: WorldState, pose: tuple[float, float, float]) -> None:
@@ -119,11 +121,13 @@ class HouseSim:
         mujoco.mj_forward(self.model, self.data)
 
     def sync_visuals(self, world: WorldState) -> None:
-        """Model-side colours (not part of the MuJoCo state) from the symbolic state."""
+        """Model-side colours (not part of the MuJoCo state) from the symbolic state; a
+        hidden exception (``reveal_exceptions`` off) changes no colour."""
+        show = self.reveal_exceptions
         for door_id, geom in self.door_lamp.items():
-            self.model.geom_rgba[geom] = _rgba(LAMP_RGBA[world.doors[door_id] == "locked"])
+            self.model.geom_rgba[geom] = _rgba(LAMP_RGBA[show and world.doors[door_id] == "locked"])
         for fid, geom in self.lid_geom.items():
-            grey = fid in world.unavailable
+            grey = show and fid in world.unavailable
             self.model.geom_rgba[geom] = (0.3, 0.3, 0.3, 1) if grey else (0.35, 0.45, 0.62, 1)
 
     def set_door(self, door: Door, state: str) -> None:

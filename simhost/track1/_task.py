@@ -17,7 +17,8 @@ class HouseTask(BaseModel):
     """A goal in the house, by instance ids.
 
     ``place``: ``object`` rests on or in any one of ``receptacles``.
-    ``use``: ``target`` is in the state ``affordance`` leads to (e.g. wipe: clean).
+    ``use``: ``target`` is in the state ``affordance`` leads to (e.g. wipe: clean), by one of
+    ``tools`` when any are listed.
     ``goto``: the robot is in ``room``.
     """
 
@@ -28,6 +29,7 @@ class HouseTask(BaseModel):
     receptacles: tuple[int, ...] = ()
     target: int | None = None
     affordance: str | None = None
+    tools: tuple[int, ...] = ()
     room: int | None = None
 
     @classmethod
@@ -68,7 +70,9 @@ def task_satisfied(
         return place is not None and place[0] in task.receptacles
     if task.kind == "use":
         assert task.target is not None and task.affordance is not None
-        return world.conditions.get(task.target) == AFFORDANCE_EFFECTS[task.affordance][1]
+        if world.conditions.get(task.target) != AFFORDANCE_EFFECTS[task.affordance][1]:
+            return False
+        return not task.tools or world.used_by.get(task.target) in task.tools
     return robot_room == task.room
 
 
@@ -135,7 +139,8 @@ def task_blockers(
         room = target.room if isinstance(target, Furniture) else None
     if room is None or room not in ok_rooms:
         out.append(f"target {task.target} unreachable")
-    tools = [i for i in layout.items if task.affordance in i.affordances]
+    tools = [i for i in layout.items if task.affordance in i.affordances
+             and (not task.tools or i.id in task.tools)]
     if not any(
         (r := _item_room(layout, world, t.id, robot_room)) is not None and r in ok_rooms
         for t in tools

@@ -7,12 +7,13 @@ import os
 import struct
 import zlib
 from collections.abc import Sequence
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from ._catalogue import RGBA, ROOM_FLOOR_RGBA
 from ._layout import HouseLayout
+from ._truth import HouseTruth
 from ._world import WorldState, ground_truth
 
 Colour = tuple[int, int, int]
@@ -72,13 +73,57 @@ _GLYPHS = {
     " ": "000000000000000",
     "-": "000000111000000",
     "#": "101111101111101",
+    ".": "000000000000010",
+    ",": "000000000010100",
+    ":": "000010000010000",
+    "/": "001001010100100",
+    "(": "010100100100010",
+    ")": "010001001001010",
+    "%": "101001010100101",
+    "=": "000111000111000",
 }
+
+TOPDOWN_LEGEND: tuple[tuple[str, Colour], ...] = (
+    ("wall", _WALL),
+    ("door open", _DOOR["open"]),
+    ("door closed", _DOOR["closed"]),
+    ("door locked", _DOOR["locked"]),
+    ("furniture", _FURNITURE),
+    ("container open", _CONTAINER["open"]),
+    ("container closed", _CONTAINER["closed"]),
+    ("unavailable", _CONTAINER["unavailable"]),
+    ("robot", _ROBOT),
+)
+"""What the colours of ``render_topdown`` mean (objects are drawn in their own colour: discs,
+tools squares)."""
+
+TOPDOWN_SCALE = 48.0
+"""Pixels per metre of ``render_topdown`` (its default)."""
+TOPDOWN_MARGIN = 12
+"""Pixels of white around the house in ``render_topdown``."""
+
+
+def draw_text(img: np.ndarray, x: int, y: int, text: str, colour: Colour = _TEXT,
+              size: int = 2) -> int:
+    """Writes ``text`` (letters, digits and a little punctuation, in capitals) into an RGB
+    image with its top-left corner at pixel (x, y); returns the x after the text."""
+    h, w = img.shape[:2]
+    for ch in text.upper():
+        bits = _GLYPHS.get(ch, _GLYPHS["#"])
+        for k, bit in enumerate(bits):
+            if bit == "1":
+                r, c = divmod(k, 3)
+                a, b = y + r * size, x + c * size
+                if 0 <= a and a + size <= h and 0 <= b and b + size <= w:
+                    img[a : a + size, b : b + size] = colour
+        x += 4 * size
+    return x
 
 
 class _HasTruth(Protocol):
     layout: HouseLayout
 
-    def ground_truth(self) -> dict[str, Any]: ...
+    def ground_truth(self) -> HouseTruth: ...
 
 
 class _Canvas:
@@ -191,7 +236,7 @@ def render_topdown(
     for wall in layout.walls:
         (cx, cy), (hx, hy) = wall.centre, wall.half
         cv.rect(cx - hx, cy - hy, cx + hx, cy + hy, _WALL)
-    states = {d["id"]: d["state"] for d in truth["doors"]}
+    states = {d.id: d.state for d in truth.doors}
     for door in layout.doors:
         colour = _DOOR[states[door.id]]
         hx, hy = door.hinge
@@ -201,26 +246,26 @@ def render_topdown(
         nx, ny = door.swing_normal
         mx, my = door.centre
         cv.text(mx - nx * 0.4, my - ny * 0.4, f"D{door.id}", colour, 2, background=(255, 255, 255))
-    for entry in truth["furniture"] + truth["containers"]:
-        f = layout.entity(entry["id"])
+    for entry in (*truth.furniture, *truth.containers):
+        f = layout.entity(entry.id)
         assert f is not None and hasattr(f, "footprint")
         x0, y0, x1, y1 = f.footprint
-        fill = _CONTAINER[entry["state"]] if "contents" in entry else _FURNITURE
+        fill = _CONTAINER[entry.state] if entry.kind == "container" else _FURNITURE
         cv.rect(x0, y0, x1, y1, fill)
         cv.outline(x0, y0, x1, y1, (40, 30, 20), 0.03)
         fx, fy = f.front
         fcx, fcy = f.pos[0] + fx * (f.size[1] / 2 - 0.04), f.pos[1] + fy * (f.size[1] / 2 - 0.04)
         ax, ay = math.cos(f.yaw) * f.size[0] * 0.4, math.sin(f.yaw) * f.size[0] * 0.4
         cv.line(fcx - ax, fcy - ay, fcx + ax, fcy + ay, (255, 255, 255), 0.04)
-        if entry["state"] == "dirty":
+        if entry.state == "dirty":
             cv.disc(f.pos[0], f.pos[1], 0.06, (90, 70, 40))
-        if entry["state"] == "unavailable":
+        if entry.state == "unavailable":
             cv.line(x0, y0, x1, y1, (210, 30, 30), 0.06)
             cv.line(x0, y1, x1, y0, (210, 30, 30), 0.06)
-    for obj in truth["objects"]:
-        x, y = obj["position"][:2]
-        colour = _rgb(RGBA[obj["colour"]])
-        if obj["kind"] == "tool":
+    for obj in truth.objects:
+        x, y = obj.position[:2]
+        colour = _rgb(RGBA[obj.colour])
+        if obj.kind == "tool":
             cv.rect(x - 0.1, y - 0.1, x + 0.1, y + 0.1, (0, 0, 0))
             cv.rect(x - 0.07, y - 0.07, x + 0.07, y + 0.07, colour)
         else:
@@ -234,8 +279,7 @@ def render_topdown(
     if trajectory is not None and len(trajectory) > 1:
         for a, b in zip(trajectory, trajectory[1:], strict=False):
             cv.line(float(a[0]), float(a[1]), float(b[0]), float(b[1]), _PATH, 0.05)
-    robot = truth["robot"]
-    rx, ry, yaw = robot["x"], robot["y"], robot["yaw"]
+    rx, ry, yaw = truth.robot.x, truth.robot.y, truth.robot.yaw
     cv.disc(rx, ry, 0.25, _ROBOT)
     cv.line(rx, ry, rx + math.cos(yaw) * 0.25, ry + math.sin(yaw) * 0.25, (255, 255, 255), 0.06)
     if path is not None:

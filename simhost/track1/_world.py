@@ -1,14 +1,24 @@
-"""The symbolic world state (what MuJoCo does not hold) and the ground-truth dictionary."""
+"""The symbolic world state (what MuJoCo does not hold) and the ground truth."""
 
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from typing import Any
 
 from ._catalogue import AFFORDANCES
 from ._errors import StateError
-from ._layout import Door, Furniture, HouseLayout, Item
+from ._layout import Furniture, HouseLayout, Item
+from ._truth import (
+    AffordanceTruth,
+    ConnectionTruth,
+    DoorTruth,
+    FurnitureTruth,
+    HouseTruth,
+    ObjectTruth,
+    RobotTruth,
+    RoomTruth,
+    ToolTruth,
+)
 
 
 @dataclass
@@ -28,6 +38,16 @@ class WorldState:
     held: int = -1
     steps: int = 0
     task_done: bool = False
+    used_by: dict[int, int] = field(default_factory=dict)
+    """target id -> the tool that last changed its condition."""
+    odometry: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """The robot's pose as its odometry estimates it (drifts when odometry is noisy)."""
+    sign_room: int = -1
+    """The room whose sign the robot read last (``room_sign="on_entry"``)."""
+    sign_step: int = 0
+    """The step at which it read that sign."""
+    noise_seed: int = 0
+    """Keys every random draw of the sensors (with the step count)."""
 
     @classmethod
     def initial(cls, layout: HouseLayout) -> WorldState:
@@ -49,13 +69,15 @@ class WorldState:
             return "unavailable"
         return self.containers[container_id]
 
-    def visible_state(self, layout: HouseLayout, entity_id: int) -> str:
-        """The state a detection shows for an entity."""
+    def visible_state(self, layout: HouseLayout, entity_id: int, *, reveal: bool = True) -> str:
+        """The state a detection shows for an entity. Without ``reveal``, a locked door
+        looks ``closed`` and an unavailable container looks ``open``/``closed`` as it is."""
         kind = layout.kind_of(entity_id)
         if kind == "door":
-            return self.doors[entity_id]
+            state = self.doors[entity_id]
+            return "closed" if state == "locked" and not reveal else state
         if kind == "container":
-            return self.container_state(entity_id)
+            return self.container_state(entity_id) if reveal else self.containers[entity_id]
         return self.conditions.get(entity_id, "none")
 
     def free_slot(self, layout: HouseLayout, receptacle_id: int) -> int | None:
@@ -81,6 +103,11 @@ class WorldState:
             "held": self.held,
             "steps": self.steps,
             "task_done": self.task_done,
+            "used_by": {str(k): v for k, v in sorted(self.used_by.items())},
+            "odometry": [float(v) for v in self.odometry],
+            "sign_room": self.sign_room,
+            "sign_step": self.sign_step,
+            "noise_seed": self.noise_seed,
         }
         return json.dumps(doc, sort_keys=True, separators=(",", ":")).encode()
 
@@ -99,6 +126,15 @@ class WorldState:
                 held=int(doc["held"]),
                 steps=int(doc["steps"]),
                 task_done=bool(doc["task_done"]),
+                used_by={int(k): int(v) for k, v in doc["used_by"].items()},
+                odometry=(
+                    float(doc["odometry"][0]),
+                    float(doc["odometry"][1]),
+                    float(doc["odometry"][2]),
+                ),
+                sign_room=int(doc["sign_room"]),
+                sign_step=int(doc["sign_step"]),
+                noise_seed=int(doc["noise_seed"]),
             )
         except (ValueError, KeyError, TypeError, IndexError) as exc:
             raise StateError(f"corrupt symbolic state: {exc}") from exc
@@ -109,8 +145,8 @@ def ground_truth(
     world: WorldState,
     robot: tuple[float, float, float],
     hand: tuple[float, float, float],
-) -> dict[str, Any]:
-    """The organizer-only ground truth (JSON-serialisable). Never sent to the agent.
+) -> HouseTruth:
+    """The organizer-only ground truth. Never sent to the agent.
 
     Args:
         layout: the house.
@@ -119,87 +155,84 @@ def ground_truth(
         hand: position of a held item.
     """
 
-    def r3(v: tuple[float, ...]) -> list[float]:
-        return [round(float(x), 3) for x in v]
+    def r(v: float, n: int = 3) -> float:
+        return round(float(v), n)
 
-    rooms = [
-        {
-            "id": r.id,
-            "type": r.type,
-            "bounds": r3(r.bounds),
-            "centre": r3(r.centre),
-            "cells": [list(c) for c in r.cells],
-        }
-        for r in layout.rooms
-    ]
-    doors = [_door_truth(d, world) for d in layout.doors]
     furniture, containers = [], []
     for f in layout.furniture:
-        entry = {
-            "id": f.id,
-            "category": f.category,
-            "room": f.room,
-            "position": r3(f.pos),
-            "yaw": round(f.yaw, 4),
-            "size": r3(f.size),
-            "state": world.visible_state(layout, f.id),
-            "access": r3(f.access),
-        }
-        if f.kind == "container":
-            entry["contents"] = world.contents(f.id)
-            containers.append(entry)
-        else:
-            furniture.append(entry)
-    objects, tools = [], []
-    for item in layout.items:
-        if item.kind == "tool":
-            tools.append(
-                {
-                    "id": item.id,
-                    "category": item.category,
-                    "colour": item.colour,
-                    "affordances": list(item.affordances),
-                    "available": item.id not in world.removed,
-                }
+        entry = FurnitureTruth(
+            id=f.id,
+            kind=f.kind,
+            category=f.category,
+            room=f.room,
+            position=(r(f.pos[0]), r(f.pos[1])),
+            yaw=r(f.yaw, 4),
+            size=(r(f.size[0]), r(f.size[1]), r(f.size[2])),
+            state=world.visible_state(layout, f.id),
+            access=(r(f.access[0]), r(f.access[1]), r(f.access[2])),
+            contents=tuple(world.contents(f.id)) if f.kind == "container" else (),
+        )
+        (containers if f.kind == "container" else furniture).append(entry)
+    tools = [
+        ToolTruth(
+            id=i.id,
+            category=i.category,
+            colour=i.colour,
+            affordances=i.affordances,
+            available=i.id not in world.removed,
+        )
+        for i in layout.items
+        if i.kind == "tool"
+    ]
+    objects = [
+        _item_truth(layout, world, item, robot, hand)
+        for item in layout.items
+        if item.id not in world.removed
+    ]
+    return HouseTruth(
+        seed=layout.seed,
+        layout_digest=layout.digest(),
+        rooms=tuple(
+            RoomTruth(
+                id=room.id,
+                type=room.type,
+                bounds=(r(room.bounds[0]), r(room.bounds[1]), r(room.bounds[2]), r(room.bounds[3])),
+                centre=(r(room.centre[0]), r(room.centre[1])),
+                cells=room.cells,
             )
-        if item.id in world.removed:
-            continue
-        objects.append(_item_truth(layout, world, item, robot, hand))
-    affordances = {
-        a: [t["id"] for t in tools if a in t["affordances"] and t["available"]] for a in AFFORDANCES
-    }
-    return {
-        "version": 1,
-        "seed": layout.seed,
-        "layout_digest": layout.digest(),
-        "rooms": rooms,
-        "edges": [{"rooms": [a, b], "door": d} for a, b, d in layout.edges()],
-        "doors": doors,
-        "furniture": furniture,
-        "containers": containers,
-        "objects": objects,
-        "tools": tools,
-        "affordances": affordances,
-        "removed": sorted(world.removed),
-        "robot": {
-            "x": round(robot[0], 4),
-            "y": round(robot[1], 4),
-            "yaw": round(robot[2], 4),
-            "room": layout.room_at(robot[0], robot[1]),
-            "held": world.held,
-        },
-        "start_room": layout.start_room,
-        "backup_room": layout.backup_room,
-    }
-
-
-def _door_truth(door: Door, world: WorldState) -> dict[str, Any]:
-    return {
-        "id": door.id,
-        "rooms": list(door.rooms),
-        "state": world.doors[door.id],
-        "position": [round(v, 3) for v in door.centre],
-    }
+            for room in layout.rooms
+        ),
+        connections=tuple(ConnectionTruth(rooms=(a, b), door=d) for a, b, d in layout.edges()),
+        doors=tuple(
+            DoorTruth(
+                id=d.id,
+                rooms=d.rooms,
+                state=world.doors[d.id],
+                position=(r(d.centre[0]), r(d.centre[1])),
+            )
+            for d in layout.doors
+        ),
+        furniture=tuple(furniture),
+        containers=tuple(containers),
+        objects=tuple(objects),
+        tools=tuple(tools),
+        affordances=tuple(
+            AffordanceTruth(tool=t.id, affordance=a)
+            for a in AFFORDANCES
+            for t in tools
+            if a in t.affordances and t.available
+        ),
+        removed=tuple(sorted(world.removed)),
+        robot=RobotTruth(
+            x=r(robot[0], 4),
+            y=r(robot[1], 4),
+            yaw=r(robot[2], 4),
+            room=layout.room_at(robot[0], robot[1]),
+            held=world.held,
+        ),
+        start_room=layout.start_room,
+        backup_room=layout.backup_room,
+    )
 
 
 def _item_truth(
@@ -208,7 +241,7 @@ def _item_truth(
     item: Item,
     robot: tuple[float, float, float],
     hand: tuple[float, float, float],
-) -> dict[str, Any]:
+) -> ObjectTruth:
     if item.id == world.held:
         pos, rec, slot = hand, -1, -1
         room = layout.room_at(robot[0], robot[1])
@@ -218,16 +251,16 @@ def _item_truth(
         receptacle = layout.entity(rec)
         assert isinstance(receptacle, Furniture)
         room = receptacle.room
-    return {
-        "id": item.id,
-        "kind": item.kind,
-        "category": item.category,
-        "colour": item.colour,
-        "room": room,
-        "receptacle": rec,
-        "slot": slot,
-        "position": [round(float(v), 3) for v in pos],
-        "state": world.conditions.get(item.id, "none"),
-        "held": item.id == world.held,
-        "affordances": list(item.affordances),
-    }
+    return ObjectTruth(
+        id=item.id,
+        kind=item.kind,
+        category=item.category,
+        colour=item.colour,
+        room=room,
+        receptacle=rec,
+        slot=slot,
+        position=(round(float(pos[0]), 3), round(float(pos[1]), 3), round(float(pos[2]), 3)),
+        state=world.conditions.get(item.id, "none"),
+        held=item.id == world.held,
+        affordances=item.affordances,
+    )

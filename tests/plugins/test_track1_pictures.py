@@ -41,14 +41,25 @@ def _has(img: np.ndarray, rgb: tuple[int, int, int]) -> bool:
     return bool((img == np.array(rgb, np.uint8)).all(axis=2).any())
 
 
-def test_preview_shows_the_map_and_a_camera_frame(tmp_path: Path) -> None:
+def _legend_has(img: np.ndarray, rgb: tuple[int, int, int]) -> bool:
+    """A 10x10 legend swatch of this colour below the map."""
+    rows = (img == np.array(rgb, np.uint8)).all(axis=2)
+    return bool(rows[-60:].sum() >= 64)
+
+
+def test_preview_shows_the_map_a_camera_frame_a_title_a_legend_and_a_scale(
+        tmp_path: Path) -> None:
     (path,) = preview(7, "challenge", tmp_path / "pics")
     assert path == tmp_path / "pics" / "track1-challenge-7.png"
     img = _read_png(path)
     assert img.shape[0] >= 240 and img.shape[1] > 320 + 200
-    camera = img[:240, -320:]
+    camera = img[40:280, -320:]
     assert camera.std() > 5, "the camera frame is blank"
-    assert _has(img, (220, 0, 200)) and _has(img, (0, 170, 210))  # the task's two rings
+    assert _has(img, (220, 0, 200)) and _has(img, (0, 170, 210))  # the goals' rings
+    assert (img[:30] < 60).all(axis=2).sum() > 200, "no title text"
+    for colour in ((220, 0, 200), (0, 170, 210), (40, 170, 70), (70, 105, 160)):
+        assert _legend_has(img, colour), colour
+    assert (img[-20:] == 0).all(axis=2).any(axis=0).sum() >= 40, "no 1 m scale bar"
 
 
 def test_trajectory_of_a_recorded_episode(tmp_path: Path) -> None:
@@ -64,6 +75,8 @@ def test_trajectory_of_a_recorded_episode(tmp_path: Path) -> None:
         assert path == Path(result.episode_dir or "") / "host" / "trajectory.png"
         img = _read_png(path)
         assert _has(img, STAGE_COLOURS["exploration"]) and _has(img, STAGE_COLOURS["execution"])
+        for colour in STAGE_COLOURS.values():
+            assert _legend_has(img, colour), colour
     finally:
         shutil.rmtree(runs, ignore_errors=True)
     with pytest.raises(FileNotFoundError, match="episode folder"):

@@ -25,7 +25,8 @@ from simhost.track1._graph import has_cycle, reachable
 
 STANDARD = [generate_house(seed) for seed in range(200)]
 CHALLENGE = [generate_house(seed, params=HouseParams.challenge()) for seed in range(100)]
-ALL = STANDARD + CHALLENGE
+OFFICIAL = [generate_house(seed, params=HouseParams.standard()) for seed in range(100)]
+ALL = STANDARD + CHALLENGE + OFFICIAL
 
 
 def _nodes(layout: HouseLayout) -> list[int]:
@@ -34,6 +35,7 @@ def _nodes(layout: HouseLayout) -> list[int]:
 
 def test_room_counts_follow_the_split() -> None:
     assert {len(h.rooms) for h in STANDARD} == {3, 4, 5}
+    assert {len(h.rooms) for h in OFFICIAL} == {3, 4, 5}
     assert {len(h.rooms) for h in CHALLENGE} == {6, 7, 8}
 
 
@@ -86,9 +88,20 @@ def test_ids_unique_and_bounded() -> None:
 
 
 def test_names_are_unambiguous_and_tools_have_substitutes() -> None:
-    for h in ALL:
+    for h in STANDARD:
         pairs = [(i.category, i.colour) for i in h.items]
-        assert len(pairs) == len(set(pairs)), "category+colour names one item"
+        assert len(pairs) == len(set(pairs)), "without look-alikes category+colour names one"
+    for houses, lo, hi in ((OFFICIAL, 1, 2), (CHALLENGE, 2, 4)):
+        extra = []
+        for h in houses:
+            room = {f.id: f.room for f in h.furniture}
+            pairs = Counter((i.category, i.colour) for i in h.items)
+            extra.append(sum(n - 1 for n in pairs.values()))
+            named = Counter((i.category, i.colour, room[i.receptacle]) for i in h.items)
+            assert max(named.values()) == 1, "look-alikes stand in different rooms"
+            assert all(i.kind == "object" for i in h.items if pairs[(i.category, i.colour)] > 1)
+        assert lo <= np.mean(extra) <= hi and max(extra) <= hi
+    for h in ALL:
         for aff in AFFORDANCES:
             tools = [i for i in h.items if aff in i.affordances]
             assert len(tools) >= 2, (h.seed, aff)
@@ -181,8 +194,8 @@ def test_layout_json_round_trip() -> None:
     again = HouseLayout.model_validate_json(h.model_dump_json())
     assert again.digest() == h.digest()
     truth = initial_ground_truth(h)
-    assert {r["id"] for r in truth["rooms"]} == set(_nodes(h))
-    assert len(truth["edges"]) == len(h.doors)
+    assert {r.id for r in truth.rooms} == set(_nodes(h))
+    assert len(truth.connections) == len(h.doors)
 
 
 @pytest.mark.parametrize("seed", [-1, 1.5, True, "3"])

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Any
 
@@ -12,6 +11,7 @@ from simhost.track1 import (
     Furniture,
     HouseEnv,
     HouseParams,
+    HouseTruth,
     PerturbationError,
     generate_house,
     make_action,
@@ -51,7 +51,7 @@ def test_door_lock_on_the_route_keeps_a_recoverable_path(seed: int) -> None:
         {"kind": "goto", "room": goal}, rooms=tuple(range(len(env.layout.rooms)))
     )
     truth = env.ground_truth()
-    assert {d["id"]: d["state"] for d in truth["doors"]}[door_id] == "locked"
+    assert {d.id: d.state for d in truth.doors}[door_id] == "locked"
     door = env.layout.entity(door_id)
     near = next(r for r in door.rooms if r != door.swing_room)  # type: ignore[union-attr]
     seen = _seen(env, door.approach(near))  # type: ignore[union-attr]
@@ -93,8 +93,8 @@ def test_relocation_to_the_backup_area_is_observable() -> None:
     assert isinstance(new, Furniture) and new.room == layout.backup_room
     assert item.id not in _seen(env, old.access)
     assert item.id in _seen(env, new.access)
-    truth = {o["id"]: o for o in env.ground_truth()["objects"]}[item.id]
-    assert truth["room"] == layout.backup_room and truth["receptacle"] == new.id
+    truth = env.ground_truth().object(item.id)
+    assert truth is not None and truth.room == layout.backup_room and truth.receptacle == new.id
     info = env.step(make_action("pick", target=item.id))[4]
     assert info["action_result"]["ok"]
     with pytest.raises(PerturbationError, match="held"):
@@ -122,8 +122,8 @@ def test_unavailable_container_and_functional_substitute() -> None:
     for primitive in ("open", "close"):
         info = env.step(make_action(primitive, target=target.id))[4]
         assert info["action_result"]["reason"] == "unavailable"
-    truth = {c["id"]: c for c in env.ground_truth()["containers"]}
-    assert truth[target.id]["state"] == "unavailable"
+    truth = {c.id: c for c in env.ground_truth().containers}
+    assert truth[target.id].state == "unavailable"
     with pytest.raises(PerturbationError, match="already unavailable"):
         env.make_container_unavailable(target.id)
 
@@ -145,9 +145,9 @@ def test_tool_removal_leaves_a_substitute() -> None:
     assert event == {"kind": "tool_removal", "tool": first.id, "previous_receptacle": rec.id}
     assert first.id not in _seen(env, rec.access)
     truth = env.ground_truth()
-    assert first.id not in {o["id"] for o in truth["objects"]}
-    assert {t["id"]: t["available"] for t in truth["tools"]}[first.id] is False
-    assert first.id not in truth["affordances"]["wipe"]
+    assert first.id not in {o.id for o in truth.objects}
+    assert {t.id: t.available for t in truth.tools}[first.id] is False
+    assert first.id not in truth.tools_for("wipe")
     assert env.has_recoverable_path(task), "a substitute tool can still wipe"
     for other in wipers[1:]:
         env.remove_tool(other.id)
@@ -162,34 +162,39 @@ def test_ground_truth_shape_and_json() -> None:
     env = HouseEnv()
     env.reset(seed=9)
     truth = env.ground_truth()
-    json.dumps(truth)
-    assert set(truth) >= {
-        "rooms",
-        "edges",
-        "doors",
-        "furniture",
-        "containers",
-        "objects",
-        "tools",
-        "affordances",
-        "robot",
-        "start_room",
-        "backup_room",
-    }
+    assert HouseTruth.model_validate_json(truth.model_dump_json()) == truth
+    model_sections = {"rooms", "connections", "doors", "containers", "objects", "affordances"}
+    assert model_sections <= set(HouseTruth.model_fields), "shaped like world_model.json"
     layout = env.layout
-    assert [r["id"] for r in truth["rooms"]] == [r.id for r in layout.rooms]
-    assert {tuple(e["rooms"]) + (e["door"],) for e in truth["edges"]} == set(layout.edges())
-    assert {d["state"] for d in truth["doors"]} <= {"open", "closed", "locked"}
-    assert {c["state"] for c in truth["containers"]} <= {"open", "closed", "unavailable"}
-    assert len(truth["objects"]) == len(layout.items)
-    for obj in truth["objects"]:
-        assert set(obj) >= {"id", "category", "colour", "room", "receptacle", "position", "state"}
-        assert layout.room_at(*obj["position"][:2]) == obj["room"]
-    for tool in truth["tools"]:
-        assert tool["affordances"] and tool["available"]
-    robot = truth["robot"]
-    assert robot["room"] == layout.start_room and robot["held"] == -1
-    assert math.isclose(robot["x"], layout.start[0], abs_tol=1e-3)
+    assert [r.id for r in truth.rooms] == [r.id for r in layout.rooms]
+    assert {c.rooms + (c.door,) for c in truth.connections} == set(layout.edges())
+    assert {d.state for d in truth.doors} <= {"open", "closed", "locked"}
+    assert {c.state for c in truth.containers} <= {"open", "closed", "unavailable"}
+    assert len(truth.objects) == len(layout.items)
+    for obj in truth.objects:
+        assert layout.room_at(*obj.position[:2]) == obj.room
+    for tool in truth.tools:
+        assert tool.affordances and tool.available
+    assert {(a.tool, a.affordance) for a in truth.affordances} == {
+        (t.id, a) for t in truth.tools for a in t.affordances}
+    assert truth.robot.room == layout.start_room and truth.robot.held == -1
+    assert math.isclose(truth.robot.x, layout.start[0], abs_tol=1e-3)
+
+
+def test_relocation_into_a_chosen_receptacle() -> None:
+    env = HouseEnv()
+    env.reset(seed=4)
+    layout = env.layout
+    item = next(i for i in layout.items if i.kind == "object")
+    home = layout.entity(item.receptacle)
+    assert isinstance(home, Furniture)
+    dest = next(f for f in layout.furniture if f.kind == "container" and f.room != home.room)
+    event = env.relocate_object(item.id, receptacle=dest.id)
+    assert event["receptacle"] == dest.id and event["room"] == dest.room
+    truth = env.ground_truth().object(item.id)
+    assert truth is not None and truth.receptacle == dest.id
+    with pytest.raises(PerturbationError, match="item.s own"):
+        env.relocate_object(item.id, receptacle=dest.id)
 
 
 def test_perturbations_change_the_state_hash_and_survive_replay() -> None:

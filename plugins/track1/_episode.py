@@ -36,7 +36,7 @@ from plugins.track1._types import (
     Track1Plan,
     Track1Scenario,
 )
-from schemas import ActionResult, FieldSpec, HostMessage
+from schemas import ActionResult, EndReason, FieldSpec, HostMessage
 from simhost import Observation, Pose, StepOutcome, TrackEpisode
 
 EXPLORATION, PLANNING, EXECUTION = "exploration", "planning", "execution"
@@ -280,7 +280,7 @@ class Track1Episode(TrackEpisode):
         if terminated and stage == EXECUTION:
             events.append({"event": "done", "step": self.steps, "success": self.success()})
             return StepOutcome(observation=self.observe(), action=out_action, episode_over=True,
-                               end_reason="completed", events=tuple(events))
+                               end_reason=EndReason.COMPLETED, events=tuple(events))
         return StepOutcome(observation=self.observe(), action=out_action, events=tuple(events))
 
     def answer(self, stage: str, answers: Mapping[str, Any]) -> StepOutcome:

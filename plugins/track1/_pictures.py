@@ -1,6 +1,6 @@
 """Pictures for organizers: a scenario's preview and an episode's trajectory (PNG).
 
-    preview(seed, split, out_dir) -> [out_dir/track1-<split>-<seed>.png]
+    preview(spec, seed, split, out_dir) -> [out_dir/track1-<split>-<seed>.png]
     trajectory_png(episode_dir) -> episode_dir/host/trajectory.png
 
 Each picture has a title (track, split, seed, and the outcome or the task), the house from
@@ -124,14 +124,12 @@ def _side_by_side(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     return out
 
 
-def preview(seed: int, split: str, out_dir: str | Path) -> list[Path]:
-    """A scenario's preview: the top-down map (the goals marked) beside the robot's first
-    camera frame, titled with the split, the seed and the instruction. Returns its path."""
-    from plugins.track1._track import Track1
+def preview(spec: Track1Scenario, seed: int, split: str, out_dir: str | Path) -> list[Path]:
+    """A scenario's preview (``spec``, made from ``seed`` on ``split``): the top-down map
+    (the goals marked) beside the robot's first camera frame, titled with the split, the
+    seed and the instruction. Returns its path."""
     from simhost.track1 import HouseEnv, render_topdown, write_png
 
-    scenario = Track1().make_scenario(seed=seed, split=split, params={})
-    spec = Track1Scenario.model_validate(scenario.params)
     env = HouseEnv(split=spec.split, render_rgbd=True, image_size=(320, 240), field_of_view=360.0)
     try:
         env.reset(seed=seed)

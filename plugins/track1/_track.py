@@ -24,6 +24,7 @@ from plugins._errors import PluginError
 from plugins.track1 import _score
 from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, Track1Episode
 from plugins.track1._scenario import build_scenario
+from plugins.track1._types import Track1Scenario
 from schemas import EpisodeResult, ScoreCard, WorldModel
 from simhost import StageSpec, TrackEpisode
 
@@ -99,7 +100,8 @@ class Track1(TrackPlugin):
         """The top-down map with the task marked, beside the robot's first camera frame."""
         from plugins.track1._pictures import preview
 
-        return preview(seed, split, out)[0]
+        scenario = self.make_scenario(seed=seed, split=split, params={})
+        return preview(Track1Scenario.model_validate(scenario.params), seed, split, out)[0]
 
     def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:
         """Table IV's row: Std., Ch., Final (eq. 2), Task Succ. %, Model Verif. %, Recovery %

@@ -13,7 +13,8 @@ import pytest
 
 from orchestrator._local import LocalProcessRuntime
 from orchestrator._worker import EpisodeSpec, run_episode
-from plugins.track1 import preview, trajectory_png
+from plugins import load_track
+from plugins.track1 import trajectory_png
 from plugins.track1._pictures import STAGE_COLOURS
 from schemas import EpisodeStatus, Limits
 
@@ -49,7 +50,7 @@ def _legend_has(img: np.ndarray, rgb: tuple[int, int, int]) -> bool:
 
 def test_preview_shows_the_map_a_camera_frame_a_title_a_legend_and_a_scale(
         tmp_path: Path) -> None:
-    (path,) = preview(7, "challenge", tmp_path / "pics")
+    path = load_track("track1").preview(seed=7, split="challenge", out=tmp_path / "pics")
     assert path == tmp_path / "pics" / "track1-challenge-7.png"
     img = _read_png(path)
     assert img.shape[0] >= 240 and img.shape[1] > 320 + 200

@@ -146,6 +146,25 @@ class HostOutcome:
         return self.stages_reached[-1] if self.stages_reached else None
 
 
+
+def _release_gl_context() -> None:
+    """The serving thread rendered with an EGL context that stays current to it; released
+    here, so that the renderer can be closed from another thread (else EGL_BAD_ACCESS when
+    the episode is closed or collected). Nothing to do without EGL or a current context."""
+    import sys
+
+    if "mujoco.egl" not in sys.modules:
+        return
+    try:
+        from OpenGL import EGL
+
+        if EGL.eglGetCurrentContext() != EGL.EGL_NO_CONTEXT:
+            EGL.eglMakeCurrent(EGL.eglGetCurrentDisplay(), EGL.EGL_NO_SURFACE,
+                               EGL.EGL_NO_SURFACE, EGL.EGL_NO_CONTEXT)
+    except Exception as e:  # noqa: BLE001 - a warning at worst, never the episode's fault
+        log.debug("EGL context not released: %s", e)
+
+
 class SimHost:
     """Serves one episode.
 
@@ -300,6 +319,7 @@ class SimHost:
                     self._finish_closed()
                     break
         finally:
+            _release_gl_context()
             self._served = True
             self._wake.set()
             # From now on every request still gets one reply: the episode is over. The late

@@ -51,8 +51,9 @@ class View:
     and inside the workspace; mirroring that makes a move land where it is aimed.
     """
 
-    def __init__(self, family: str, rows: int) -> None:
-        movable, reach, links = MOVABLE[family]
+    def __init__(self, family: str, rows: int, rigs: tuple[set[int], dict[int, float],
+                                                         dict[int, int]] | None = None) -> None:
+        movable, reach, links = rigs if rigs is not None else MOVABLE[family]
         self.p = Perception(rows, movable, reach, links)
         self.obs: dict[str, np.ndarray] = {}
         self.prev_ee = np.zeros(4)

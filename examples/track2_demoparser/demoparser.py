@@ -29,7 +29,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from controllers import CONTROLLERS, View
+from controllers import View
+from generic import execute
+from parse import DemoParse, parse
 from taskmodel import task_model
 
 from schemas import DemoManifest
@@ -37,6 +39,9 @@ from simhost.agent import OutputFiles, RemoteEnv
 
 GIVE_UP_STEPS = 10  # idle steps after the controller is through before ending the attempt
 GOAL_EVENTS = ("turned", "opened", "closed", "inserted", "pressed", "aligned")
+# Goal annotations that name a state (the part ends somewhere relative to the others); the
+# others name a motion (the part moves by what the demonstration moved it).
+STATE_EVENTS = ("opened", "closed", "inserted", "placed", "aligned")
 
 
 def read_packet(folder: Path) -> tuple[DemoManifest, dict[str, np.ndarray]]:
@@ -101,6 +106,7 @@ class Agent:
         self.view: View | None = None
         self.first: View | None = None
         self.dev = False
+        self.dp: DemoParse | None = None
 
     def log(self, event: str, stage: str, **data: Any) -> None:
         self.files.log(step=self.steps, stage=stage, event=event, data=data)
@@ -126,8 +132,20 @@ class Agent:
         self.measured = self.hints  # the controllers add what they measure (a range, ...)
         self.write_model(ts.stage)
 
+    def demo_parse(self) -> DemoParse:
+        if self.dp is None:
+            self.dp = parse(self.manifest, self.arrays)
+        return self.dp
+
+    def make_view(self, obs: dict[str, Any]) -> View:
+        dp = self.demo_parse()
+        view = View(self.family, len(obs["parts"]), rigs=(dp.movable, dp.reach, dp.links))
+        view.update(obs, reset=True)
+        return view
+
     def controller(self, view: View) -> Any:
-        return CONTROLLERS[self.family](view, self.hints)
+        goal = next((e for e in self.manifest.events if e.event in GOAL_EVENTS), None)
+        return execute(view, self.demo_parse(), goal is not None and goal.event in STATE_EVENTS)
 
     def after_attempt(self, data: dict[str, Any]) -> None:
         """Rewrite the task model when the attempt measured something (an opening's range)."""
@@ -149,15 +167,13 @@ class Agent:
                 if not self.family:
                     self.receive(ts)
                 if self.first is None:
-                    self.first = View(self.family, len(ts.observation["parts"]))
-                    self.first.update(ts.observation, reset=True)
+                    self.first = self.make_view(ts.observation)
                 self.parse(ts)
                 ts = env.end_stage()
                 continue
             if ts.observation.get("attempt", 0) != attempt:
                 attempt = int(ts.observation["attempt"])
-                self.view = View(self.family, len(ts.observation["parts"]))
-                self.view.update(ts.observation, reset=True)
+                self.view = self.make_view(ts.observation)
                 plan, idle = self.controller(self.view), 0
                 self.log("attempt", ts.stage, attempt=attempt)
             assert plan is not None and self.view is not None

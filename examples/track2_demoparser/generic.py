@@ -217,7 +217,9 @@ def tool(v: View, ph: Phase, dp: DemoParse) -> Plan:
     anchor = ph.anchor if ph.anchor is not None else ph.ref
     assert anchor is not None
     part = pose(v, ph.held)
-    at, yaw0 = _grasp_pose(v, ph, part, 0.0)
+    turn = wrap(float(ph.path[0][3]) - (part[3] + ph.grasp[3])) if ph.path else 0.0
+    at, yaw0 = _grasp_pose(v, ph, part, turn)
+    k_yaw = yaw0 - (part[3] + ph.grasp[3])  # the grasp's multiple of pi: path yaws follow it
     yield from _approach(v, at, yaw0, max(ph.open_width, 0.03))
     ee = v.ee()
     yield from move(v, [ee[0], ee[1], max(ph.carry_z, 0.08)], ee[3], 0.0, tol=0.004)
@@ -230,7 +232,7 @@ def tool(v: View, ph: Phase, dp: DemoParse) -> Plan:
         for _ in range(6):
             ee, tp = v.ee(), v.pos(tip)
             err = want - tp
-            yield from move(v, ee[:3] + err, float(wp[3]), 0.0, max_steps=1)
+            yield from move(v, ee[:3] + err, wrap(float(wp[3] + k_yaw)), 0.0, max_steps=1)
             if np.linalg.norm(want - v.pos(tip)) < 0.004:
                 break
     yield from look(v, 4)

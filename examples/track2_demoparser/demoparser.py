@@ -79,6 +79,9 @@ def demo_hints(man: DemoManifest, arrays: dict[str, np.ndarray]) -> dict[str, An
             hints["turn"] = float(yaw[let_go] - yaw[grasp])
     elif man.family == "opening":
         hints["mode"] = man.stage_names[2]
+        # the annotations name the part the hand took: drawer, cover or lid
+        kinds = {"drawer": "drawer", "cover": "sliding_cover", "lid": "swivel_lid"}
+        hints["kind"] = next((kinds[e.part] for e in man.events if e.part in kinds), "drawer")
         if goal is not None:
             hints["fraction"] = goal.value
     elif man.family == "insertion" and goal is not None:
@@ -90,6 +93,9 @@ def demo_hints(man: DemoManifest, arrays: dict[str, np.ndarray]) -> dict[str, An
         moved = [float(np.linalg.norm(parts[-1, 2 * s, 1:3] - parts[0, 2 * s, 1:3]))
                  if parts[0, 2 * s, 0] > 0.5 else -1.0 for s in (0, 1)]
         hints["slot"] = int(np.argmax(moved))
+        if hints["mechanism"] == "press":  # how far the target went down, at rest before/after
+            z = parts[:, 4, 3]
+            hints["press_depth"] = round(float(np.mean(z[:8]) - np.mean(z[-8:])), 3)
     return hints
 
 

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 from controllers import WMAX, Plan, View, grip, hold, look, move, release, servo
-from parse import DemoParse, Phase, compose, relative
+from parse import DemoParse, Phase, compose
 from perception import rot2, wrap
 
 TURN_PERIOD = math.pi  # the two-finger hand grips alike at yaw and yaw + pi

@@ -186,7 +186,8 @@ def parse(man: DemoManifest, arrays: dict[str, np.ndarray]) -> DemoParse:
         stage = _stage_at(man, (g + end) // 2)
         if lifted and r is not None:
             static = [i for i in present if i != held and i not in linked
-                      and not _moved(before[i], after[i])]
+                      and not _moved(before[i], after[i])] or [
+                i for i in present if i != held and i not in linked]
             ref = min(static, key=lambda i: float(np.linalg.norm(after[i][:3]
                                                                  - after[held][:3])))
             phases.append(Phase(

@@ -63,10 +63,38 @@ def _grasp_pose(v: View, ph: Phase, part: np.ndarray, turn: float) -> tuple[np.n
     return np.array([hand[0], hand[1], max(hand[2], 0.006)]), yaw
 
 
-def _approach(v: View, at: np.ndarray, yaw: float, open_w: float) -> Plan:
-    yield from move(v, [at[0], at[1], at[2] + 0.045], yaw, open_w, tol=0.004)
-    yield from move(v, at, yaw, open_w, speed=0.6)
-    yield from grip(v, 0.0, 6)
+def holding(v: View, width: float = 0.0) -> bool:
+    """Both fingers in contact, apart by at least half the width the demonstration held
+    (else they closed on nothing or on an edge); the exact proprioception."""
+    prop = v.obs["proprio"]
+    return bool(prop[5] > 0.5 and prop[6] > 0.5 and prop[4] > max(0.004, 0.5 * width))
+
+
+def _approach(v: View, at: np.ndarray, yaw: float, open_w: float, width: float = 0.0) -> Plan:
+    """Down onto ``at`` with the fingers open, close; a descent that stops above ``at`` (a
+    finger on the part) or a grasp that closes on nothing (the pose estimate is off by more
+    than the fingers' slack) is tried again around ``at``."""
+    for off in [np.zeros(2), *spiral(0.005, 2)][:8]:
+        p = np.array([at[0] + off[0], at[1] + off[1], at[2]])
+        yield from move(v, [p[0], p[1], p[2] + 0.045], yaw, open_w, tol=0.004)
+        stuck = 0
+        for _ in range(40):
+            ee = v.ee()
+            if ee[2] < p[2] + 0.002 or stuck >= 3:
+                break
+            yield from move(v, [p[0], p[1], max(p[2], ee[2] - 0.009)], yaw, open_w,
+                            max_steps=1)
+            stuck = stuck + 1 if v.ee()[2] > ee[2] - 0.001 else 0
+        if v.ee()[2] > p[2] + 0.006:  # stopped on top of something: elsewhere
+            ee = v.ee()
+            yield from move(v, [ee[0], ee[1], p[2] + 0.045], yaw, open_w, tol=0.004)
+            continue
+        yield from grip(v, 0.0, 6)
+        if holding(v, width):
+            return
+        yield from grip(v, open_w, 2)
+        ee = v.ee()
+        yield from move(v, [ee[0], ee[1], p[2] + 0.045], yaw, open_w, tol=0.004)
 
 
 def _lower(v: View, part: int, floor: float, xy: Any = None) -> Plan:
@@ -101,7 +129,7 @@ def carry(v: View, ph: Phase, tries: int = 3) -> Plan:
         part = pose(v, held)
         turn = wrap(near_period(goal[3] - part[3], TURN_PERIOD))
         at, yaw0 = _grasp_pose(v, ph, part, turn)
-        yield from _approach(v, at, yaw0, max(ph.open_width, 0.03))
+        yield from _approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
         lift = max(ph.carry_z, goal[2] + (v.ee()[2] - part[2]) + 0.03)
         ee = v.ee()
         yield from move(v, [ee[0], ee[1], lift], yaw0, 0.0, tol=0.004)
@@ -157,8 +185,9 @@ class Motion:
                 self.pivot = None
         self.length = float(np.linalg.norm(d)) + 0.1 * abs(self.dyaw)
 
-    def at(self, s: float) -> np.ndarray:
-        s = float(np.clip(s, 0.0, 1.0))
+    def at(self, s: float, extrapolate: bool = False) -> np.ndarray:
+        if not extrapolate:
+            s = float(np.clip(s, 0.0, 1.0))
         if self.pivot is None:
             p = self.start + s * (self.goal - self.start)
             return np.array([*p[:3], self.start[3] + s * self.dyaw])
@@ -176,7 +205,9 @@ class Motion:
         return float((turned - self.start[3]) / self.dyaw)
 
 
-def drive(v: View, ph: Phase, state_goal: bool, tries: int = 3) -> Plan:
+def drive(v: View, ph: Phase, state_goal: bool, tries: int = 3, stall: float = 0.0) -> Plan:
+    """Follow the part's motion at the grasp (see the module docstring); with ``stall`` > 0,
+    give up when the part has not followed by that fraction after 10 steps."""
     held = ph.held
     assert ph.displacement is not None
     start = pose(v, held)
@@ -194,7 +225,7 @@ def drive(v: View, ph: Phase, state_goal: bool, tries: int = 3) -> Plan:
         part = motion.at(s0)
         at, yaw0 = _grasp_pose(v, ph, part, (1 - s0) * motion.dyaw)
         k_yaw = yaw0 - (part[3] + ph.grasp[3])  # the grasp's multiple of pi
-        yield from _approach(v, at, yaw0, max(ph.open_width, 0.03))
+        yield from _approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
         stuck, best = 0, s0
         for _ in range(200):
             s = motion.progress(pose(v, held))
@@ -202,13 +233,15 @@ def drive(v: View, ph: Phase, state_goal: bool, tries: int = 3) -> Plan:
                 break
             stuck = stuck + 1 if s < best + 0.1 * step else 0
             best = max(best, s)
-            if stuck > 12:
+            if stuck > 12 or (stall and stuck > 10 and best - s0 < stall):
                 break
             nxt = compose(motion.at(s + float(np.clip(1 - s, -step, step))), ph.grasp)
             yield from move(v, nxt[:3], float(nxt[3] + k_yaw), 0.0, max_steps=1)
         yield from hold(v, 3, 0.0)
         yield from release(v, max(ph.open_width, 0.03), 0.05)
         yield from look(v, 8)
+        if stall and best - s0 < stall:
+            return
 
 
 # -- tool -------------------------------------------------------------------------------------
@@ -220,7 +253,7 @@ def tool(v: View, ph: Phase, dp: DemoParse) -> Plan:
     turn = wrap(float(ph.path[0][3]) - (part[3] + ph.grasp[3])) if ph.path else 0.0
     at, yaw0 = _grasp_pose(v, ph, part, turn)
     k_yaw = yaw0 - (part[3] + ph.grasp[3])  # the grasp's multiple of pi: path yaws follow it
-    yield from _approach(v, at, yaw0, max(ph.open_width, 0.03))
+    yield from _approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
     ee = v.ee()
     yield from move(v, [ee[0], ee[1], max(ph.carry_z, 0.08)], ee[3], 0.0, tol=0.004)
     origin = v.pos(anchor).copy()

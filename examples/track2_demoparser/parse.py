@@ -70,6 +70,7 @@ class Phase:
     held: int
     grasp: np.ndarray  # the hand in the held part's frame when the fingers closed
     open_width: float
+    held_width: float  # how far apart the fingers were while they held it
     start: int  # observation index of the grasp
     end: int  # of the release (the last observation if held to the end)
     ref: int | None = None  # carry: the row it was placed against; drive: the nearest
@@ -84,6 +85,7 @@ class Phase:
     moved_ref: int | None = None  # the row that part ended against
     moved_goal: np.ndarray | None = None  # its offset from moved_ref at the end
     moved_dir: np.ndarray | None = None  # the direction it was moved in (xy, unit)
+    start_rel: np.ndarray | None = None  # drive: the held part in ref's frame before
     anchor: int | None = None  # tool: the row its path is relative to (translated frame)
     stage: str = ""  # the key stage its action happened in
 
@@ -183,6 +185,7 @@ def parse(man: DemoManifest, arrays: dict[str, np.ndarray]) -> DemoParse:
             bool(zs) and max(zs) - before[held][2] > LIFTED_M)
         grasp = relative(hand[g, :4], before[held])
         open_w = float(np.max(hand[max(0, g - 15):g + 1, 4]))
+        held_w = float(np.median(hand[g + 2:min(end, g + 12) + 1, 4])) if end > g + 2 else 0.0
         stage = _stage_at(man, (g + end) // 2)
         if lifted and r is not None:
             static = [i for i in present if i != held and i not in linked
@@ -191,12 +194,13 @@ def parse(man: DemoManifest, arrays: dict[str, np.ndarray]) -> DemoParse:
             ref = min(static, key=lambda i: float(np.linalg.norm(after[i][:3]
                                                                  - after[held][:3])))
             phases.append(Phase(
-                kind="carry", held=held, grasp=grasp, open_width=open_w, start=g, end=end,
+                kind="carry", held=held, grasp=grasp, open_width=open_w, held_width=held_w,
+                start=g, end=end,
                 ref=ref, goal=relative(after[held], after[ref]),
                 carry_z=float(np.max(hand[g:end + 1, 2])), stage=stage))
         elif lifted:
-            phases.append(_tool_phase(seen, hand, present, held, linked, grasp, open_w, g, t,
-                                      lifted_events, part, before, after, stage))
+            phases.append(_tool_phase(seen, hand, present, held, linked, grasp, open_w, held_w,
+                                      g, t, lifted_events, part, before, after, stage))
         else:
             if phases and phases[-1].kind == "drive" and phases[-1].held == held:
                 prev = phases[-1]  # a regrasp of the same mechanism: one motion
@@ -213,9 +217,11 @@ def parse(man: DemoManifest, arrays: dict[str, np.ndarray]) -> DemoParse:
                                                                  - before[held][:3])),
                       default=None)
             phases.append(Phase(
-                kind="drive", held=held, grasp=grasp, open_width=open_w, start=g, end=end,
+                kind="drive", held=held, grasp=grasp, open_width=open_w, held_width=held_w,
+                start=g, end=end,
                 path=path, displacement=relative(after[held], before[held]),
                 ref=ref, goal=None if ref is None else relative(after[held], after[ref]),
+                start_rel=None if ref is None else relative(before[held], before[ref]),
                 stage=stage))
     movable = {p.held for p in phases}
     return DemoParse(family=man.family, rows=rows, phases=phases, movable=movable,
@@ -230,7 +236,8 @@ def _stage_at(man: DemoManifest, k: int) -> str:
 
 
 def _tool_phase(seen: _Rows, hand: np.ndarray, present: list[int], held: int,
-                linked: list[int], grasp: np.ndarray, open_w: float, g: int, t: int,
+                linked: list[int], grasp: np.ndarray, open_w: float, held_w: float, g: int,
+                t: int,
                 lifted_events: list[tuple[int, str]], part: str,
                 before: dict[int, np.ndarray], after: dict[int, np.ndarray],
                 stage: str) -> Phase:
@@ -250,7 +257,8 @@ def _tool_phase(seen: _Rows, hand: np.ndarray, present: list[int], held: int,
         if tip_k is None:
             continue
         path.append(np.array([*(tip_k[:3] - origin[:3]), hand[k, 3]]))
-    phase = Phase(kind="tool", held=held, grasp=grasp, open_width=open_w, start=g, end=t,
+    phase = Phase(kind="tool", held=held, grasp=grasp, open_width=open_w, held_width=held_w,
+                  start=g, end=t,
                   ref=ref, path=path, tip=tip, anchor=anchor,
                   carry_z=float(np.max(hand[g:t + 1, 2])), stage=stage)
     if moved:

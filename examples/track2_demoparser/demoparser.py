@@ -7,19 +7,17 @@ Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), ``schemas`` (the p
 
 - ``demonstration``: reads the packet where the host says (``$EAGC_INPUT/<folder>``) and
   ends the stage.
-- ``parsing``: segments the demonstration into its key stages (the manifest's labels and
-  state-change annotations: grasp, release, ...), takes from it what the observation
-  cannot show — the goal annotation's magnitude (the turn, the opening fraction, the
-  depth), the last key stage (press or pull), the slot whose tool it took — writes
-  ``task_model.json`` and ends the stage.
-  Nothing moves here.
-- ``execution``: the family's scripted controller (``controllers.py``), closed on filtered
-  observations (``perception.py``); when it is through without success it ends the attempt
-  and runs again (an opening's measured range is kept across attempts).
+- ``parsing``: cuts the demonstration into phases (``parse.py``: which row the hand held,
+  how, relative to what, where it ended or how it moved), takes from the packet what the
+  observation cannot show (the goal annotation's magnitude, the last key stage, the
+  mechanism kind the annotations name, the slot whose tool it took), writes
+  ``task_model.json`` and ends the stage. Nothing moves here.
+- ``execution``: the generic controller of each phase in turn (``generic.py``: carry, drive,
+  tool), closed on filtered observations (``perception.py``); when it is through without
+  success it ends the attempt and runs again.
 
-It does what the demonstration did, with the same stages and the same tool slot; it does
-not check whether the instance's mechanism, direction or useful tool differ, nor verify the
-goal after acting.
+It does what the demonstration did, with the same phases, end states and tool slot; it
+does not check whether the instance's mechanism, direction or useful tool differ.
 """
 
 from __future__ import annotations
@@ -145,7 +143,7 @@ class Agent:
 
     def make_view(self, obs: dict[str, Any]) -> View:
         dp = self.demo_parse()
-        view = View(self.family, len(obs["parts"]), rigs=(dp.movable, dp.reach, dp.links))
+        view = View(len(obs["parts"]), dp.movable, dp.reach, dp.links)
         view.update(obs, reset=True)
         return view
 

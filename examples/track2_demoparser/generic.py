@@ -205,9 +205,10 @@ class Motion:
         return float((turned - self.start[3]) / self.dyaw)
 
 
-def drive(v: View, ph: Phase, state_goal: bool, tries: int = 3, stall: float = 0.0) -> Plan:
+def drive(v: View, ph: Phase, state_goal: bool, tries: int = 3, stall: float = 0.0) -> Any:
     """Follow the part's motion at the grasp (see the module docstring); with ``stall`` > 0,
-    give up when the part has not followed by that fraction after 10 steps."""
+    give up when the part has not followed by that fraction after 10 steps. Returns how far
+    the part and the hand went along the motion (fractions of it) on the last try."""
     held = ph.held
     assert ph.displacement is not None
     start = pose(v, held)
@@ -218,14 +219,16 @@ def drive(v: View, ph: Phase, state_goal: bool, tries: int = 3, stall: float = 0
         goal = compose(start, ph.displacement)
     motion = Motion(start, goal)
     step = 0.01 / max(motion.length, 0.01)  # about 1 cm (or 0.1 rad) per step
+    went = (0.0, 0.0)
     for _ in range(tries):
         s0 = motion.progress(pose(v, held))
         if abs(1 - s0) * motion.length < 0.003:
-            return
+            return went
         part = motion.at(s0)
         at, yaw0 = _grasp_pose(v, ph, part, (1 - s0) * motion.dyaw)
         k_yaw = yaw0 - (part[3] + ph.grasp[3])  # the grasp's multiple of pi
         yield from _approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
+        hand0 = v.ee()
         stuck, best = 0, s0
         for _ in range(200):
             s = motion.progress(pose(v, held))
@@ -235,13 +238,19 @@ def drive(v: View, ph: Phase, state_goal: bool, tries: int = 3, stall: float = 0
             best = max(best, s)
             if stuck > 12 or (stall and stuck > 10 and best - s0 < stall):
                 break
-            nxt = compose(motion.at(s + float(np.clip(1 - s, -step, step))), ph.grasp)
+            # lead the part by a step, more while it lags (the joint's friction needs force)
+            lead = step * min(2.5, 1.0 + 0.3 * stuck)
+            nxt = compose(motion.at(s + float(np.clip(1 - s, -lead, lead))), ph.grasp)
             yield from move(v, nxt[:3], float(nxt[3] + k_yaw), 0.0, max_steps=1)
+        hand = v.ee()
+        travel = float(np.linalg.norm(hand[:2] - hand0[:2])) + 0.1 * abs(wrap(hand[3] - hand0[3]))
+        went = (best - s0, travel / max(motion.length, 1e-6))
         yield from hold(v, 3, 0.0)
         yield from release(v, max(ph.open_width, 0.03), 0.05)
         yield from look(v, 8)
         if stall and best - s0 < stall:
-            return
+            return went
+    return went
 
 
 # -- tool -------------------------------------------------------------------------------------

@@ -23,7 +23,6 @@ import numpy as np
 from controllers import Plan, View, grip, hold, look, move, nearest_yaw, release, servo
 from generic import Motion, carry, drive, near_period, pose, tool
 from parse import DemoParse, Phase, compose, relative
-from perception import wrap
 
 
 # -- insertion, assembly: each demonstrated carry, placed relative to its reference, checked ---
@@ -49,13 +48,13 @@ def rotation(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
     for _ in range(2):
         disp = ph.displacement.copy()
         disp[3] = turn
-        start = v.yaw(ph.held)
-        yield from drive(v, replace(ph, displacement=disp), False, tries=2,
-                         stall=0.08)
-        turned = wrap(v.yaw(ph.held) - start)
-        if abs(turned) > 0.15 or model.get("direction_flipped"):
+        part, _ = yield from drive(v, replace(ph, displacement=disp), False, tries=2,
+                                      stall=0.08)
+        if part >= 0.08 or model.get("direction_flipped"):
             return
-        model["turn"] = turn = -turn  # predicted to turn; it did not: a stop
+        # predicted to turn; the handle did not, whether the hand held still or slipped
+        # round it under growing force: a stop
+        model["turn"] = turn = -turn
         model["direction_flipped"] = True
 
 

@@ -70,11 +70,12 @@ def holding(v: View, width: float = 0.0) -> bool:
     return bool(prop[5] > 0.5 and prop[6] > 0.5 and prop[4] > max(0.004, 0.5 * width))
 
 
-def _approach(v: View, at: np.ndarray, yaw: float, open_w: float, width: float = 0.0) -> Plan:
+def approach(v: View, at: np.ndarray, yaw: float, open_w: float, width: float = 0.0) -> Plan:
     """Down onto ``at`` with the fingers open, close; a descent that stops above ``at`` (a
     finger on the part) or a grasp that closes on nothing (the pose estimate is off by more
     than the fingers' slack) is tried again around ``at``."""
-    for off in [np.zeros(2), *spiral(0.005, 2)][:8]:
+    offsets = [np.zeros(2), *spiral(0.005, 2)][:8]
+    for j, off in enumerate(offsets):
         p = np.array([at[0] + off[0], at[1] + off[1], at[2]])
         yield from move(v, [p[0], p[1], p[2] + 0.045], yaw, open_w, tol=0.004)
         stuck = 0
@@ -85,7 +86,7 @@ def _approach(v: View, at: np.ndarray, yaw: float, open_w: float, width: float =
             yield from move(v, [p[0], p[1], max(p[2], ee[2] - 0.009)], yaw, open_w,
                             max_steps=1)
             stuck = stuck + 1 if v.ee()[2] > ee[2] - 0.001 else 0
-        if v.ee()[2] > p[2] + 0.006:  # stopped on top of something: elsewhere
+        if v.ee()[2] > p[2] + 0.003 and j + 1 < len(offsets):  # stopped on top: elsewhere
             ee = v.ee()
             yield from move(v, [ee[0], ee[1], p[2] + 0.045], yaw, open_w, tol=0.004)
             continue
@@ -129,7 +130,7 @@ def carry(v: View, ph: Phase, tries: int = 3) -> Plan:
         part = pose(v, held)
         turn = wrap(near_period(goal[3] - part[3], TURN_PERIOD))
         at, yaw0 = _grasp_pose(v, ph, part, turn)
-        yield from _approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
+        yield from approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
         lift = max(ph.carry_z, goal[2] + (v.ee()[2] - part[2]) + 0.03)
         ee = v.ee()
         yield from move(v, [ee[0], ee[1], lift], yaw0, 0.0, tol=0.004)
@@ -227,7 +228,7 @@ def drive(v: View, ph: Phase, state_goal: bool, tries: int = 3, stall: float = 0
         part = motion.at(s0)
         at, yaw0 = _grasp_pose(v, ph, part, (1 - s0) * motion.dyaw)
         k_yaw = yaw0 - (part[3] + ph.grasp[3])  # the grasp's multiple of pi
-        yield from _approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
+        yield from approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
         hand0 = v.ee()
         stuck, best = 0, s0
         for _ in range(200):
@@ -262,7 +263,7 @@ def tool(v: View, ph: Phase, dp: DemoParse) -> Plan:
     turn = wrap(float(ph.path[0][3]) - (part[3] + ph.grasp[3])) if ph.path else 0.0
     at, yaw0 = _grasp_pose(v, ph, part, turn)
     k_yaw = yaw0 - (part[3] + ph.grasp[3])  # the grasp's multiple of pi: path yaws follow it
-    yield from _approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
+    yield from approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
     ee = v.ee()
     yield from move(v, [ee[0], ee[1], max(ph.carry_z, 0.08)], ee[3], 0.0, tol=0.004)
     origin = v.pos(anchor).copy()

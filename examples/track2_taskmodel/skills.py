@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 from controllers import Plan, View, grip, hold, look, move, nearest_yaw, release, servo
-from generic import Motion, carry, drive, near_period, pose, tool
+from generic import Motion, approach, carry, drive, near_period, pose, tool
 from parse import DemoParse, Phase, compose, relative
 
 
@@ -118,9 +118,7 @@ def opening(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
         yaw0 = near_period(float(hand[3]), math.pi, 0.0)
         k_yaw = yaw0 - float(hand[3])
         open_w = max(ph.open_width, 0.03)
-        yield from move(v, [hand[0], hand[1], hand[2] + 0.045], yaw0, open_w, tol=0.004)
-        yield from move(v, hand[:3], yaw0, open_w, speed=0.6)
-        yield from grip(v, 0.0, 6)
+        yield from approach(v, hand[:3], yaw0, open_w, ph.held_width)
         if "ends" not in model:
             far = 3.0 / max(motion.length, 0.01)  # past any stop: 3 m (or 30 rad) away
             s_open, moved = yield from drive_to(motion, grasp, k_yaw, s0 + sign * far, True)

@@ -104,30 +104,187 @@ def segments(manifest: dict[str, Any], arrays: dict[str, np.ndarray]) -> list[tu
     return out
 
 
+def rel(p: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """Pose ``p`` (x, y, z, yaw) in the frame of pose ``frame``."""
+    c, s = math.cos(frame[3]), math.sin(frame[3])
+    d = p[:2] - frame[:2]
+    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], p[2] - frame[2],
+                     wrap(p[3] - frame[3])])
+
+
+def fresh_pose(parts: np.ndarray, row: int, lo: int, hi: int) -> np.ndarray | None:
+    """The last fresh measurement of ``row`` among observations ``lo`` .. ``hi - 1``."""
+    for k in range(min(hi, len(parts)) - 1, lo - 1, -1):
+        if parts[k, row, 0] > 0.5 and parts[k, row, 9] <= 0.2:
+            return pose(parts[k, row])
+    return None
+
+
+class Hold:
+    """A stretch of the demonstration with a part in the hand: what it did to the part."""
+
+    def __init__(self, seg: int, held: int, start: np.ndarray, final: np.ndarray) -> None:
+        self.seg, self.held = seg, held
+        self.start, self.final = start, final  # the part in the reference's frame
+        self.motion = final - start
+        self.motion[3] = wrap(self.motion[3])
+        self.turn = abs(self.motion[3]) > 0.3 and np.linalg.norm(self.motion[:3]) < 0.02
+        self.correction = np.zeros(4)  # added to the waypoints, the reference's frame
+        self.flipped = False  # the turn mirrored: the part would not follow the demo's
+        self.tried: list[str] = []
+
+
 class Replay:
-    """Follows the transformed waypoints, mirroring the hand's control target."""
+    """Follows the transformed waypoints, mirroring the hand's control target; between
+    attempts it adapts the waypoints of each hold to what the held part did."""
 
     def __init__(self, manifest: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
         self.parts0 = arrays["obs_parts"]
         self.targets = control_targets(arrays)
         self.grips = arrays["actions"][:, 4].astype(float)
         self.segments = segments(manifest, arrays)
+        grasps = {min(e["step"], len(self.targets)) for e in manifest["events"]
+                  if e["event"] == "grasped"}
+        self.holds: dict[int, Hold] = {}
+        self.approaches = {j for j, seg in enumerate(self.segments) if seg[1] in grasps}
+        for j in range(1, len(self.segments)):
+            first, end, ref = self.segments[j]
+            prev = self.segments[j - 1]
+            if prev[1] not in grasps or end >= len(self.targets):
+                continue  # not a hold, or never released (its effect is on another part)
+            held = prev[2]
+            nxt = self.segments[j + 2][0] if j + 2 < len(self.segments) else len(self.parts0)
+            frame = pose(self.parts0[first, ref])
+            after = fresh_pose(self.parts0, held, end, nxt)
+            if after is None:
+                continue
+            hold = Hold(j, held, rel(pose(self.parts0[first, held]), frame), rel(after, frame))
+            if hold.turn and ref != held:  # a part turned in place: its own frame, not the
+                # base's, so that the turn is the demonstration's from where it was grasped
+                frame = pose(self.parts0[first, held])
+                hold = Hold(j, held, rel(pose(self.parts0[first, held]), frame),
+                            rel(after, frame))
+                for i in range(j, len(self.segments)):
+                    if i == j or (i == j + 1 and i not in self.approaches):
+                        a, b, r = self.segments[i]
+                        self.segments[i] = (a, b, held if r == ref else r)
+            self.holds[j] = hold
+        self.seen_holds: dict[int, dict[str, Any]] = {}
+        self.notes: list[str] = []
 
+    # ------------------------------------------------------------ adaptation
+    def adapt(self) -> list[str]:
+        """Moves each hold's waypoints by what its part missed on the last attempt."""
+        notes = []
+        for j, h in self.holds.items():
+            got = self.seen_holds.get(j)
+            if not got or got.get("final") is None:
+                continue
+            start, final, contact = got["start"], got["final"], got["contact"]
+            moved = final - start
+            moved[3] = wrap(moved[3])
+            want = h.start + (-1 if h.flipped else 1) * h.motion
+            if h.turn:
+                sign = -1.0 if h.flipped else 1.0
+                along = moved[3] * sign * math.copysign(1.0, h.motion[3])
+                if along < 0.3 * abs(h.motion[3]) and contact > 0.5 and not h.tried:
+                    h.flipped = not h.flipped  # held, yet it did not turn: the other way
+                    h.correction[:] = 0.0
+                    h.tried.append("flip")
+                    notes.append(f"hold {j}: turned {moved[3]:+.2f}, flipped")
+                    continue
+                err = wrap(want[3] - final[3])
+                h.correction[3] = float(np.clip(h.correction[3] + err, -1.0, 1.0))
+                notes.append(f"hold {j}: turn short by {err:+.2f}")
+                continue
+            if np.linalg.norm(moved[:3]) < 0.3 * np.linalg.norm(h.motion[:3]):
+                notes.append(f"hold {j}: the part did not follow")
+                continue  # a missed grasp: its pose says nothing about the waypoints
+            err = want - final
+            err[3] = wrap(err[3])
+            if abs(err[3]) > 0.2:  # a symmetric part's yaw may fold: not evidence
+                err[3] = 0.0
+            h.correction[:3] = np.clip(h.correction[:3] + err[:3], -0.03, 0.03)
+            h.correction[3] = float(np.clip(h.correction[3] + err[3], -0.3, 0.3))
+            notes.append(f"hold {j}: off by {np.round(err, 3).tolist()}")
+        return notes
+
+    def adjusted(self) -> np.ndarray:
+        """The demonstration's targets with the holds' corrections (demonstration frame)."""
+        out = self.targets.copy()
+        for j, h in self.holds.items():
+            first, end, ref = self.segments[j]
+            src = pose(self.parts0[first, ref])
+            c, s = math.cos(src[3]), math.sin(src[3])
+            cw = h.correction
+            delta = np.array([c * cw[0] - s * cw[1], s * cw[0] + c * cw[1], cw[2], cw[3]])
+            p0 = self.targets[first].copy()
+            span = max(1, end - first)
+            for k in range(first, end):
+                if h.flipped:
+                    out[k, 3] = 2 * p0[3] - self.targets[k, 3]
+                out[k] += min(1.0, 2.0 * (k - first + 1) / span) * delta
+            tail = out[end - 1] - self.targets[end - 1]
+            if j + 1 < len(self.segments):
+                a, b, _ = self.segments[j + 1]
+                last = j + 1 == len(self.segments) - 1
+                for k in range(a, b):
+                    out[k] += tail * (1.0 if last else 1.0 - (k - a) / max(1, b - a))
+        return out
+
+    # ------------------------------------------------------------ one attempt
     def plan(self, obs: dict[str, Any], stretch: int) -> Any:
+        if self.seen_holds:
+            self.notes = self.adapt()
+        self.seen_holds = {}
+        targets = self.adjusted()
         target = np.asarray(obs["proprio"][:4], dtype=float)
         seen: dict[int, list[np.ndarray]] = {}
-        for first, end, ref in self.segments:
+        last: dict[int, tuple[int, np.ndarray]] = {}  # row: (step, fresh pose)
+        steps = 0
+        watch: list[tuple[int, int, np.ndarray, int]] = []  # hold, row, frame, from step
+        turn = 0.0
+
+        def look(o: dict[str, Any]) -> None:
+            rows = np.asarray(o["parts"], dtype=float)
+            for i in range(len(rows)):
+                if rows[i, 0] > 0.5 and rows[i, 9] <= 0.2:
+                    last[i] = (steps, pose(rows[i]))
+            for j, row, frame, since in watch:
+                if row in last and last[row][0] > since:
+                    self.seen_holds[j]["final"] = rel(last[row][1], frame)
+
+        for j, (first, end, ref) in enumerate(self.segments):
+            watch = [w for w in watch if w[0] + 2 > j]  # as the demonstration's window
             src = pose(self.parts0[first, ref])
             rows = np.asarray(obs["parts"], dtype=float)
             seen.setdefault(ref, []).append(pose(rows[ref]))
             live = np.mean(seen[ref][-10:], axis=0)
-            dyaw = wrap(live[3] - src[3])
-            c, s = math.cos(dyaw), math.sin(dyaw)
+            if j in self.approaches:  # the grasp and what follows, within the hand's yaw range
+                dyaw = wrap(live[3] - src[3])
+                b = self.segments[j + 1][1] if j + 1 < len(self.segments) else end
+                yaws = targets[first:b, 3] + dyaw
+                turn = 0.0  # a two-finger grasp is the same turned by half a turn
+                if yaws.max() > HI[3] - 0.05 and yaws.min() - math.pi > LO[3] + 0.05:
+                    turn = -math.pi
+                elif yaws.min() < LO[3] + 0.05 and yaws.max() + math.pi < HI[3] - 0.05:
+                    turn = math.pi
+            hold = self.holds.get(j)
+            if hold is not None:
+                start = np.mean(seen.get(hold.held, [pose(rows[hold.held])])[-10:], axis=0)
+                self.seen_holds[j] = {"start": rel(start, live), "final": None,
+                                      "contact": 0.0}
+                contacts = 0
             for k in range(first, end):
-                p = self.targets[k]
+                if hold is None and ref not in {h.held for h in self.holds.values()
+                                                if h.seg < j}:
+                    live = np.mean(seen[ref][-10:], axis=0)  # closed loop on a still part
+                dyaw = wrap(live[3] - src[3])
+                c, s = math.cos(dyaw), math.sin(dyaw)
+                p = targets[k]
                 d = p[:2] - src[:2]
                 wp = np.array([live[0] + c * d[0] - s * d[1], live[1] + s * d[0] + c * d[1],
-                               p[2] + live[2] - src[2], p[3] + dyaw])
+                               p[2] + live[2] - src[2], p[3] + dyaw + turn])
                 for _ in range(stretch):
                     for _ in range(20):  # catch up after a jump between frames
                         hand = np.asarray(obs["proprio"][:4], dtype=float)
@@ -136,13 +293,23 @@ class Replay:
                         a = np.append(step / SCALE, self.grips[k])
                         target = np.clip(np.clip(target + step, hand - LEAD, hand + LEAD), LO, HI)
                         obs = yield a
+                        steps += 1
+                        look(obs)
                         row = np.asarray(obs["parts"], dtype=float)[ref]
                         if row[9] <= 0.2:  # a fresh measurement of the reference part
                             seen[ref].append(pose(row))
+                        if hold is not None:
+                            pr = np.asarray(obs["proprio"], dtype=float)
+                            contacts += int(pr[5] > 0.5 and pr[6] > 0.5)
                         if np.all(np.abs(wp - target) < 1e-4):
                             break
+            if hold is not None:
+                self.seen_holds[j]["contact"] = contacts / max(1, end - first)
+                watch.append((j, hold.held, live, steps))
         for _ in range(10):  # as the demonstration ends: let go and back off upwards
             obs = yield np.array([0.0, 0.0, 0.5, 0.0, self.grips[-1]])
+            steps += 1
+            look(obs)
 
 
 def main() -> int:
@@ -174,7 +341,7 @@ def main() -> int:
                 attempt = int(ts.observation["attempt"])
                 plan = replay.plan(ts.observation, stretch=1)
                 action = next(plan)
-                record("attempt", ts.stage, attempt=attempt)
+                record("attempt", ts.stage, attempt=attempt, adapted=replay.notes)
             else:
                 try:
                     action = plan.send(ts.observation)

@@ -25,9 +25,11 @@ from __future__ import annotations
 
 import math
 import sys
+from collections import deque
 from typing import Any
 
 import numpy as np
+from doorways import Doorways
 from parsing import AFFORDANCES, parse
 from priors import Priors
 
@@ -36,8 +38,16 @@ from simhost.agent import OutputFiles, RemoteEnv, TimeStep
 REACH = {"object": 1.0, "tool": 1.0, "door": 1.3}
 SIZES = {"table": 0.5, "counter": 0.55, "shelf": 0.4, "bed": 0.9, "desk": 0.45, "sofa": 0.6,
          "cabinet": 0.4, "drawer": 0.4, "fridge": 0.45, "bin": 0.3}
-PATIENCE = 150
+SUBSTITUTE = 0.4
+"""After this share of the execution budget it accepts another tool with the same use."""
 ROOM_PATIENCE = 40
+"""Steps it searches a room before leaving it (a third of that in a room it came back to)."""
+SCAN = 8
+"""Turns in place (45 degrees each) to look for something before moving on."""
+BACK = 25
+"""Steps in a room before it goes back out by the doorway it came in by."""
+RECENT = 3
+"""Room signs it remembers (the last rooms passed, within a stage)."""
 LOOK_AROUND = 6
 """Steps of turning in place on entering a room (45 degrees a step, 120 degrees seen)."""
 UNLIKELY = 0.25
@@ -55,19 +65,52 @@ class Agent:
     def __init__(self, seed: int = 1) -> None:
         self.rng = np.random.default_rng(seed)
         self.priors = Priors()
+        self.doorways = Doorways()
         self.files = OutputFiles()
         self.step = 0
         self.exec_steps = 0
+        self.budget = 0
         self.goals: list[dict[str, Any]] = []
         self.current = 0
-        self.room, self.room_type = -1, ""
         self.logged: set[str] = set()
         self.last: dict[str, Any] | None = None
         self.drop = False
-        self.in_room = 0
         self.stuck = 0
+        self.stage = ""
+        self.new_stage()
         self.report: dict[str, dict[int, dict[str, Any]]] = {
             k: {} for k in ("rooms", "doors", "containers", "objects", "affordances")}
+
+    # ------------------------------------------------------------------ its bounded state
+    def new_stage(self) -> None:
+        """Forgets everything but the instruction and the goal it is on: nothing of one
+        stage reaches the next (exploration's sightings go to the report only)."""
+        self.room, self.room_type = -1, ""
+        self.recent: deque[int] = deque(maxlen=RECENT)
+        """The last rooms whose sign it read (ids), this one excluded."""
+        self.locked: deque[int] = deque(maxlen=2)
+        """Doors whose ``open`` failed with ``locked`` (the last two)."""
+        self.unusable: deque[int] = deque(maxlen=2)
+        """Containers whose ``open``/``place`` failed with ``unavailable`` (the last two)."""
+        self.near_door: int | None = None
+        """The door it last came within 1.5 m of (the one it entered by, after a sign)."""
+        self.new_room(-1, "", revisit=False)
+
+    def new_room(self, room: int, room_type: str, *, revisit: bool) -> None:
+        """Reads a room sign: what it keeps of the room it left is its id and its door."""
+        if self.room >= 0 and room != self.room:
+            self.recent.append(self.room)
+        self.entry = self.near_door if room != self.room else None
+        self.room, self.room_type = room, room_type
+        self.revisit = revisit
+        self.in_room = 0
+        self.scan = 0
+        self.inspected: set[int] = set()
+        """Furniture of this room it has looked at from close up (ids, reset per room)."""
+        self.door: int | None = None
+        self.passing = 0
+        self.clear = 2 if self.entry is not None else 0
+        """Steps straight on after a sign read in a doorway, to be clear of it."""
 
     def record(self, event: str, stage: str, exception_type: str | None = None,
                **data: Any) -> None:
@@ -82,6 +125,19 @@ class Agent:
             d["dist"] = math.hypot(*d["rel_pos"])
             d["bearing"] = math.atan2(d["rel_pos"][1], d["rel_pos"][0])
         return out
+
+    @staticmethod
+    def through(d: dict, dets: list[dict]) -> dict | None:
+        """The open doorway in view that ``d`` is seen through (it is in another room), if
+        any: a doorway nearer on the same bearing."""
+        for door in dets:
+            if door["kind"] != "door" or door["id"] == d["id"] or door["state"] != "open":
+                continue
+            width = math.atan2(0.6, max(door["dist"], 0.3)) + 0.1
+            if d["dist"] > door["dist"] + 0.4 and abs(math.remainder(
+                    d["bearing"] - door["bearing"], math.tau)) < width:
+                return door
+        return None
 
     def write_model(self, obs: dict) -> None:
         """Adds what it sees now to ``world_model.json``: the file is a report of sightings,
@@ -141,7 +197,7 @@ class Agent:
         """Searches: along the walls on the right hand (furniture stands against walls, so
         this passes close to every surface), and out through a doorway in sight once this
         room has been searched for a while or is not the room the goal names."""
-        doors = [d for d in dets if d["kind"] == "door" and d["id"] not in self.locked_now]
+        doors = [d for d in dets if d["kind"] == "door" and d["id"] not in self.locked]
         leave = self.in_room > ROOM_PATIENCE or (self.goals and self.current < len(
             self.goals) and self.leaving(obs))
         if leave and doors and not int(obs["collided"][0]):
@@ -173,7 +229,7 @@ class Agent:
             return {"primitive": "move", "move": [0.0, 1.0 if left >= right_side else -1.0]}
         for d in dets:
             if (d["kind"] == "door" and d["state"] == "closed" and d["dist"] < 1.45
-                    and abs(d["bearing"]) < 0.6 and d["id"] not in self.locked_now):
+                    and abs(d["bearing"]) < 0.6 and d["id"] not in self.locked):
                 return {"primitive": "open", "target": d["id"]}
         front = min(ray(a) for a in (-20, -10, 0, 10, 20))
         right = min(ray(a) for a in (-80, -90, -100))
@@ -204,7 +260,7 @@ class Agent:
         def item_ok(d: dict) -> bool:
             if self.fits(d, ref):
                 return True
-            return (goal["kind"] == "use" and self.exec_steps > PATIENCE
+            return (goal["kind"] == "use" and self.exec_steps > SUBSTITUTE * self.budget
                     and AFFORDANCES.get(d["category"]) == goal["affordance"])
 
         if held < 0:
@@ -227,17 +283,23 @@ class Agent:
 
     def promising(self, obs: dict, dets: list[dict]) -> dict | None:
         """The piece of furniture in view most likely to hold what is wanted (learned priors
-        over furniture category and this room's type), among those ahead and not yet close
-        (close up, what is on it would be in sight)."""
+        over furniture category and this room's type), among those of this room not yet
+        looked at from close up. Marks what it is close to and faces as looked at."""
         category, room, on = self.wanted_now(obs)
+        for d in dets:
+            if d["kind"] not in ("furniture", "container"):
+                continue
+            shut = d["kind"] == "container" and d["state"] == "closed" and \
+                d["id"] not in self.unusable
+            if not shut and d["dist"] < CLOSE and abs(d["bearing"]) < 0.7:
+                self.inspected.add(d["id"])
         if room is not None and self.room_type and self.room_type != room:
             return None
         best, best_p = None, 0.04
         for d in dets:
-            if d["kind"] not in ("furniture", "container") or abs(d["bearing"]) > 1.0:
+            if d["kind"] not in ("furniture", "container") or d["id"] in self.inspected:
                 continue
-            if d["dist"] < (1.2 if d["kind"] == "container" and d["state"] == "closed"
-                            else CLOSE):
+            if abs(d["bearing"]) > 1.0 or d["dist"] > 4.5 or self.through(d, dets):
                 continue
             p = self.priors.where(category, d["category"], self.room_type or None)
             if on is not None:  # the instruction says what it rests on
@@ -255,6 +317,21 @@ class Agent:
         else:
             ref = goal["dest"] if goal["kind"] == "place" else goal["target"]
         return ref["category"], ref.get("room"), ref.get("on")
+
+    def want_types(self, obs: dict) -> np.ndarray:
+        """Per room type, how much what is needed next is looked for there (1 for the room
+        the instruction names, else the learned priors relative to the likeliest type)."""
+        category, room, on = self.wanted_now(obs)
+        types = self.doorways.room_types
+        if room is not None:
+            return np.array([float(t == room) for t in types])
+        if category in self.priors.items:
+            return np.array([self.priors.room_share(category, t) for t in types])
+        look = on or category
+        if look in self.doorways.furniture_types:
+            col = self.doorways.furniture[:, self.doorways.furniture_types.index(look)]
+            return col / max(float(col.max()), 1e-9)
+        return np.ones(len(types))
 
     def act(self, obs: dict, dets: list[dict], stage: str) -> dict[str, Any]:
         if self.drop and int(obs["held"][0]) >= 0:  # the tool just used is not needed now
@@ -275,18 +352,8 @@ class Agent:
                 thing, primitive, extra = again[0], self.lock[2], self.lock[3]
             else:
                 self.lock = None
-        if thing is None and not int(obs["collided"][0]):
-            place = self.promising(obs, dets)
-            if place is not None:  # go and look at it from close up
-                if place["kind"] == "container" and place["state"] == "closed":
-                    if place["dist"] <= SIZES.get(place["category"], 0.5) + 0.55:
-                        return {"primitive": "open", "target": place["id"]}
-                return self.toward(obs, place["bearing"], place["dist"])
-        if (thing is None and self.in_room < LOOK_AROUND and not int(obs["collided"][0])
-                and not self.leaving(obs)):
-            return {"primitive": "move", "move": [0.0, 1.0]}  # just in: look around
         if thing is None or int(obs["collided"][0]):
-            return self.wander(obs, dets, self.room_wanted(obs))
+            return self.search(obs, dets)
         if self.stuck >= 3:  # the way to it is blocked: search on
             self.stuck = 0
             return self.follow_wall(obs, dets)
@@ -297,6 +364,78 @@ class Agent:
         if thing["dist"] <= reach:
             return {"primitive": primitive, "target": thing["id"], **extra}
         return self.toward(obs, thing["bearing"], thing["dist"])
+
+    def search(self, obs: dict, dets: list[dict]) -> dict[str, Any]:
+        """Nothing it needs is in view. In a room worth searching it looks at the likeliest
+        furniture not yet seen from close up, turning in place to find some; once none is
+        left (or after a while) it leaves by the doorway most likely to lead on."""
+        if int(obs["collided"][0]):
+            return self.follow_wall(obs, dets)
+        if self.clear > 0:  # just through a doorway: into the room first
+            self.clear -= 1
+            return self.toward(obs, 0.0, 1.0)
+        patience = ROOM_PATIENCE // 3 if self.revisit else ROOM_PATIENCE
+        if not self.leaving(obs) and self.in_room < patience:
+            place = self.promising(obs, dets)
+            if place is not None:  # go and look at it from close up
+                self.scan = 0
+                if place["kind"] == "container" and place["state"] == "closed":
+                    if place["dist"] <= SIZES.get(place["category"], 0.5) + 0.55 and \
+                            abs(place["bearing"]) < 0.6:
+                        return {"primitive": "open", "target": place["id"]}
+                    if abs(place["bearing"]) > 0.6:
+                        return {"primitive": "move", "move": [
+                            0.0, max(-1.0, min(1.0, place["bearing"] / (math.pi / 4)))]}
+                return self.toward(obs, place["bearing"], place["dist"])
+            if self.scan < SCAN:
+                self.scan += 1
+                return {"primitive": "move", "move": [0.0, 1.0]}  # look around
+        return self.leave(obs, dets)
+
+    def leave(self, obs: dict, dets: list[dict]) -> dict[str, Any]:
+        """Out through the doorway in view that most likely leads toward what is wanted
+        (the learned doorway model), never back through the one it came in by while another
+        is in view; with none in view it turns to find one, then follows the walls."""
+        doors = [d for d in dets if d["kind"] == "door" and d["id"] not in self.locked
+                 and self.through(d, dets) is None]
+        if self.door is not None and self.passing > 0 and not any(
+                d["id"] == self.door for d in doors):
+            self.passing -= 1  # in the doorway: it is out of view, carry on through
+            return self.toward(obs, 0.0, 1.0)
+        if doors:
+            want = self.want_types(obs)
+            furniture = [d for d in dets if d["kind"] in ("furniture", "container")]
+
+            def value(door: dict) -> float:
+                seen = [f["category"] for f in furniture
+                        if (self.through(f, dets) or {}).get("id") == door["id"]]
+                v = self.doorways.value(self.room_type or None, seen, want)
+                if door["id"] == self.entry:
+                    v *= 0.15
+                if door["id"] == self.door:
+                    v *= 1.5  # keeps to its choice
+                return v / (1 + door["dist"] / 8)
+
+            door = max(doors, key=value)
+            if door["id"] == self.entry and self.in_room < BACK:
+                # only the way back in view: look around for another, then along the walls
+                if self.scan < SCAN:
+                    self.scan += 1
+                    return {"primitive": "move", "move": [0.0, 1.0]}
+                return self.follow_wall(obs, dets)
+            self.door = door["id"]
+            self.scan = SCAN
+            if door["state"] == "closed":
+                if door["dist"] < 1.45 and abs(door["bearing"]) < 0.6:
+                    return {"primitive": "open", "target": door["id"]}
+                return self.toward(obs, door["bearing"], door["dist"])
+            if door["dist"] < 1.2:
+                self.passing = 3
+            return self.toward(obs, door["bearing"], door["dist"] + 1.0)
+        if self.scan < SCAN:
+            self.scan += 1
+            return {"primitive": "move", "move": [0.0, 1.0]}
+        return self.follow_wall(obs, dets)
 
     def leaving(self, obs: dict) -> bool:
         """Whether the goal names another room than this one, or names none and what is
@@ -318,8 +457,6 @@ class Agent:
     def failure(self, ts: TimeStep, stage: str) -> None:
         """A failed action that says what is wrong: a locked door, an unusable container."""
         result = ts.observation["action_result"]
-        self.locked_now = set()
-        self.unusable = set()
         self.nudge = None
         if self.last is None or result.get("ok", True):
             return
@@ -331,10 +468,12 @@ class Agent:
             self.nudge = {"primitive": "move", "move": [0.4, 0.0]}
             return
         if reason == "locked":
-            self.locked_now = {target}
+            if target not in self.locked:
+                self.locked.append(target)
             kind = "door_lock"
         elif reason == "unavailable":
-            self.unusable = {target}
+            if target not in self.unusable:
+                self.unusable.append(target)
             kind = "container_unavailable"
         else:
             return
@@ -344,24 +483,30 @@ class Agent:
 
     # ------------------------------------------------------------------ the loop
     def run(self, env: RemoteEnv) -> None:
-        env.hello(agent="eagc-track1-memoryfree/2")
+        env.hello(agent="eagc-track1-memoryfree/3")
         ts: TimeStep = env.reset()
-        self.locked_now: set[int] = set()
-        self.unusable: set[int] = set()
         self.nudge: dict[str, Any] | None = None
         self.lock: tuple | None = None
         while not ts.episode_over:
             obs = ts.observation
+            if ts.stage != self.stage:
+                self.stage = ts.stage
+                self.new_stage()
+                if ts.stage == "execution":
+                    self.budget = ts.steps_left or 0
             self.in_room += 1
             self.stuck = self.stuck + 1 if int(obs["collided"][0]) else 0
-            if int(obs["room"][0]) >= 0:
-                self.room, self.room_type = int(obs["room"][0]), obs["room_name"]
-                self.in_room = 0
+            dets = self.seen(obs)
+            near = [d for d in dets if d["kind"] == "door" and d["dist"] < 1.5]
+            if near:
+                self.near_door = min(near, key=lambda d: d["dist"])["id"]
+            if int(obs["room"][0]) >= 0 and int(obs["room"][0]) != self.room:
+                room = int(obs["room"][0])
+                self.new_room(room, obs["room_name"], revisit=room in self.recent)
             for m in ts.messages:
                 if m.type == "instruction" and "text" in m.data:
                     self.goals = parse(m.data["text"])
             self.failure(ts, ts.stage)
-            dets = self.seen(obs)
             if self.nudge is not None and ts.stage != "planning" and not (
                     ts.steps_left is not None and ts.steps_left <= 1):
                 action = self.nudge

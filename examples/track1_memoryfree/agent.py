@@ -42,8 +42,13 @@ SUBSTITUTE = 0.4
 """After this share of the execution budget it accepts another tool with the same use."""
 ROOM_PATIENCE = 40
 """Steps it searches a room before leaving it (a third of that in a room it came back to)."""
-SCAN = 8
-"""Turns in place (45 degrees each) to look for something before moving on."""
+SCAN = 6
+"""Turns in place (45 degrees each) to look for something before moving on (with a
+120-degree view, six turns see all round)."""
+ROAM = 4
+"""Steps it drives into the open part of a room before looking around again."""
+ROAMS = 2
+"""Such drives per room."""
 BACK = 25
 """Steps in a room before it goes back out by the doorway it came in by."""
 RECENT = 3
@@ -109,6 +114,7 @@ class Agent:
         """Furniture of this room it has looked at from close up (ids, reset per room)."""
         self.door: int | None = None
         self.passing = 0
+        self.roam, self.roams = 0, 0
         self.clear = 2 if self.entry is not None else 0
         """Steps straight on after a sign read in a doorway, to be clear of it."""
 
@@ -390,7 +396,33 @@ class Agent:
             if self.scan < SCAN:
                 self.scan += 1
                 return {"primitive": "move", "move": [0.0, 1.0]}  # look around
+            if self.roam == 0 and self.roams < ROAMS:
+                self.roam, self.roams = ROAM, self.roams + 1
+            if self.roam > 0:  # into the open part of the room, then look around again
+                self.roam -= 1
+                if self.roam == 0:
+                    self.scan = SCAN // 2
+                return self.toward(obs, self.open_bearing(obs, dets), 2.0)
         return self.leave(obs, dets)
+
+    @staticmethod
+    def open_bearing(obs: dict, dets: list[dict]) -> float:
+        """The bearing of the longest free ray of the range scan within the view (where the
+        room opens up), leaving out rays through a doorway in view (that is another
+        room)."""
+        scan = np.asarray(obs["range_scan"], float)
+        rays = np.remainder(np.arange(len(scan)) * (2 * math.pi / len(scan)) + math.pi,
+                            2 * math.pi) - math.pi
+        ok = np.abs(rays) <= math.pi / 3 + 1e-6
+        for door in dets:
+            if door["kind"] == "door":
+                width = math.atan2(0.7, max(door["dist"], 0.3)) + 0.1
+                ok &= np.abs(np.remainder(rays - door["bearing"] + math.pi, 2 * math.pi)
+                             - math.pi) > width
+        if not ok.any():
+            return math.pi / 2
+        room = np.minimum(scan, 5.0) - 0.5 * np.abs(rays)  # ties: the straighter
+        return float(rays[int(np.argmax(np.where(ok, room, -9.0)))])
 
     def leave(self, obs: dict, dets: list[dict]) -> dict[str, Any]:
         """Out through the doorway in view that most likely leads toward what is wanted

@@ -38,8 +38,10 @@ from simhost.agent import OutputFiles, RemoteEnv, TimeStep
 REACH = {"object": 1.0, "tool": 1.0, "door": 1.3}
 SIZES = {"table": 0.5, "counter": 0.55, "shelf": 0.4, "bed": 0.9, "desk": 0.45, "sofa": 0.6,
          "cabinet": 0.4, "drawer": 0.4, "fridge": 0.45, "bin": 0.3}
-SUBSTITUTE = 0.4
-"""After this share of the execution budget it accepts another tool with the same use."""
+LOOSE = 0.35
+"""After this share of the execution budget spent on one goal without it, it takes the
+description loosely (an exception may have changed things): another tool with the same
+use, the thing in any room, and every room type is worth a look."""
 ROOM_PATIENCE = 40
 """Steps it searches a room before leaving it (a third of that in a room it came back to)."""
 SCAN = 6
@@ -248,12 +250,18 @@ class Agent:
         return {"primitive": "move", "move": [min(1.0, (front - 0.6) / 0.5), steer]}
 
     # ------------------------------------------------------------------ the task
+    def loose(self) -> bool:
+        """Whether it has spent long enough on this goal to take its description loosely."""
+        return self.exec_steps > LOOSE * self.budget
+
     def fits(self, d: dict, ref: dict, *, here: bool = True) -> bool:
         """Whether a detection fits a description (its room only when known now)."""
         if d["category"] != ref["category"]:
             return False
         if ref.get("colour") and d["colour"] != ref["colour"]:
             return False
+        if d["kind"] in ("object", "tool") and self.loose():
+            return True  # it may have been moved out of the room the instruction names
         return not (here and ref.get("room") and self.room_type
                     and self.room_type != ref["room"])
 
@@ -266,7 +274,7 @@ class Agent:
         def item_ok(d: dict) -> bool:
             if self.fits(d, ref):
                 return True
-            return (goal["kind"] == "use" and self.exec_steps > SUBSTITUTE * self.budget
+            return (goal["kind"] == "use" and self.loose()
                     and AFFORDANCES.get(d["category"]) == goal["affordance"])
 
         if held < 0:
@@ -291,7 +299,10 @@ class Agent:
         """The piece of furniture in view most likely to hold what is wanted (learned priors
         over furniture category and this room's type), among those of this room not yet
         looked at from close up. Marks what it is close to and faces as looked at."""
-        category, room, on = self.wanted_now(obs)
+        category, _, on = self.wanted_now(obs)
+        room = self.room_wanted(obs)
+        if self.loose() and int(obs["held"][0]) < 0:
+            on = None
         for d in dets:
             if d["kind"] not in ("furniture", "container"):
                 continue
@@ -327,7 +338,8 @@ class Agent:
     def want_types(self, obs: dict) -> np.ndarray:
         """Per room type, how much what is needed next is looked for there (1 for the room
         the instruction names, else the learned priors relative to the likeliest type)."""
-        category, room, on = self.wanted_now(obs)
+        category, _, on = self.wanted_now(obs)
+        room = self.room_wanted(obs)
         types = self.doorways.room_types
         if room is not None:
             return np.array([float(t == room) for t in types])
@@ -475,15 +487,18 @@ class Agent:
         room = self.room_wanted(obs)
         if room is not None:
             return bool(self.room_type and self.room_type != room)
+        if self.loose():
+            return False
         category, _, _ = self.wanted_now(obs)
         return self.priors.room_share(category, self.room_type or None) < UNLIKELY
 
     def room_wanted(self, obs: dict) -> str | None:
-        """The room type the goal names for what is needed next, if any."""
+        """The room type the goal names for what is needed next, if any (for the thing to
+        fetch, until it takes the description loosely)."""
         goal = self.goals[self.current]
         if int(obs["held"][0]) < 0:
             ref = goal["item"] if goal["kind"] == "place" else goal["tool"]
-            return ref.get("room")
+            return None if self.loose() else ref.get("room")
         return (goal["dest"] if goal["kind"] == "place" else goal["target"]).get("room")
 
     def failure(self, ts: TimeStep, stage: str) -> None:

@@ -43,7 +43,10 @@ LOOSE = 0.35
 description loosely (an exception may have changed things): another tool with the same
 use, the thing in any room, and every room type is worth a look."""
 ROOM_PATIENCE = 40
-"""Steps it searches a room before leaving it (a third of that in a room it came back to)."""
+"""Steps it searches a room of the likeliest type before leaving it (in proportion to the
+likelihood for another type, at least ``MIN_PATIENCE``; a third of that in a room it came
+back to)."""
+MIN_PATIENCE = 10
 SCAN = 6
 """Turns in place (45 degrees each) to look for something before moving on (with a
 120-degree view, six turns see all round)."""
@@ -54,6 +57,8 @@ ROAMS = 2
 BACK = 25
 """Steps in a room before it goes back out by the doorway it came in by."""
 RECENT = 3
+SURE = 0.8
+"""How sure it must be of a room's type recognised from its furniture."""
 """Room signs it remembers (the last rooms passed, within a stage)."""
 LOOK_AROUND = 6
 """Steps of turning in place on entering a room (45 degrees a step, 120 degrees seen)."""
@@ -82,6 +87,7 @@ class Agent:
         self.logged: set[str] = set()
         self.last: dict[str, Any] | None = None
         self.drop = False
+        self.sought: tuple = ()
         self.stuck = 0
         self.stage = ""
         self.new_stage()
@@ -99,6 +105,8 @@ class Agent:
         """Doors whose ``open`` failed with ``locked`` (the last two)."""
         self.unusable: deque[int] = deque(maxlen=2)
         """Containers whose ``open``/``place`` failed with ``unavailable`` (the last two)."""
+        self.refused: deque[int] = deque(maxlen=3)
+        """Furniture where ``place`` failed for good (full: the last three)."""
         self.near_door: int | None = None
         """The door it last came within 1.5 m of (the one it entered by, after a sign)."""
         self.new_room(-1, "", revisit=False)
@@ -117,6 +125,8 @@ class Agent:
         self.door: int | None = None
         self.passing = 0
         self.roam, self.roams = 0, 0
+        self.place: int | None = None
+        """The piece of furniture it is going to look at (while in view)."""
         self.clear = 2 if self.entry is not None else 0
         """Steps straight on after a sign read in a doorway, to be clear of it."""
 
@@ -146,6 +156,15 @@ class Agent:
                     d["bearing"] - door["bearing"], math.tau)) < width:
                 return door
         return None
+
+    def recognise(self, dets: list[dict]) -> str:
+        """The type of the room it stands in, from the furniture in view in it (the learned
+        doorway tables), when no sign was read in this stage yet: "" until it is sure."""
+        seen = [d["category"] for d in dets if d["kind"] in ("furniture", "container")
+                and self.through(d, dets) is None]
+        p = self.doorways.room_of(seen)
+        best = int(np.argmax(p))
+        return self.doorways.room_types[best] if seen and p[best] >= SURE else ""
 
     def write_model(self, obs: dict) -> None:
         """Adds what it sees now to ``world_model.json``: the file is a report of sightings,
@@ -265,26 +284,26 @@ class Agent:
         return not (here and ref.get("room") and self.room_type
                     and self.room_type != ref["room"])
 
+    def fetching(self, obs: dict) -> bool:
+        """Whether it is still after the thing to fetch (its hand is empty)."""
+        return int(obs["held"][0]) < 0
+
     def wanted(self, obs: dict, dets: list[dict]) -> tuple[dict | None, str, dict]:
         """What to act on now, if it is in sight: (detection, primitive, extra fields)."""
         goal = self.goals[self.current]
         held = int(obs["held"][0])
         ref = goal["item"] if goal["kind"] == "place" else goal["tool"]
-
-        def item_ok(d: dict) -> bool:
-            if self.fits(d, ref):
-                return True
-            return (goal["kind"] == "use" and self.loose()
-                    and AFFORDANCES.get(d["category"]) == goal["affordance"])
-
         if held < 0:
-            items = [d for d in dets if d["kind"] in ("object", "tool") and item_ok(d)]
+            items = [d for d in dets if d["kind"] in ("object", "tool") and self.fits(d, ref)]
+            if not items and goal["kind"] == "use" and self.loose():
+                items = [d for d in dets if d["kind"] == "tool"
+                         and AFFORDANCES.get(d["category"]) == goal["affordance"]]
             return (min(items, key=lambda d: d["dist"]) if items else None), "pick", {}
         if goal["kind"] == "place":
             dest = goal["dest"]
             here = self.room_type == dest["room"]
             dests = [d for d in dets if here and d["kind"] in ("furniture", "container")
-                     and d["id"] not in self.unusable
+                     and d["id"] not in self.unusable and d["id"] not in self.refused
                      and (d["category"] == dest["category"] or (
                          d["kind"] == "container" and goal["container"] and self.unusable))]
             best = min(dests, key=lambda d: (d["category"] != dest["category"], d["dist"]),
@@ -301,17 +320,23 @@ class Agent:
         looked at from close up. Marks what it is close to and faces as looked at."""
         category, _, on = self.wanted_now(obs)
         room = self.room_wanted(obs)
-        if self.loose() and int(obs["held"][0]) < 0:
+        if self.loose() and self.fetching(obs):
             on = None
         for d in dets:
             if d["kind"] not in ("furniture", "container"):
                 continue
             shut = d["kind"] == "container" and d["state"] == "closed" and \
                 d["id"] not in self.unusable
-            if not shut and d["dist"] < CLOSE and abs(d["bearing"]) < 0.7:
+            if not shut and d["dist"] < CLOSE and abs(d["bearing"]) < 0.7 and \
+                    d["id"] not in self.inspected:
                 self.inspected.add(d["id"])
+                if d["id"] == self.place:  # looked at: from here, look around a little
+                    self.place, self.scan = None, SCAN // 2
         if room is not None and self.room_type and self.room_type != room:
             return None
+        kept = [d for d in dets if d["id"] == self.place and d["id"] not in self.inspected]
+        if kept:  # keeps to the piece it chose while it stays in view
+            return kept[0]
         best, best_p = None, 0.04
         for d in dets:
             if d["kind"] not in ("furniture", "container") or d["id"] in self.inspected:
@@ -329,31 +354,36 @@ class Agent:
         """The category needed next, the room the instruction names for it and what the
         instruction says it rests on."""
         goal = self.goals[self.current]
-        if int(obs["held"][0]) < 0:
+        if self.fetching(obs):
             ref = goal["item"] if goal["kind"] == "place" else goal["tool"]
         else:
             ref = goal["dest"] if goal["kind"] == "place" else goal["target"]
         return ref["category"], ref.get("room"), ref.get("on")
 
     def want_types(self, obs: dict) -> np.ndarray:
-        """Per room type, how much what is needed next is looked for there (1 for the room
-        the instruction names, else the learned priors relative to the likeliest type)."""
+        """Per room type, how much what is needed next is looked for there, relative to the
+        likeliest type: 1 for the room the instruction names; else the learned priors of
+        the category by room type, times the chance that a room of the type has the piece
+        of furniture the instruction says it rests on."""
         category, _, on = self.wanted_now(obs)
         room = self.room_wanted(obs)
         types = self.doorways.room_types
         if room is not None:
             return np.array([float(t == room) for t in types])
+        if self.loose() and self.fetching(obs):
+            on = None
+        w = np.ones(len(types))
         if category in self.priors.items:
-            return np.array([self.priors.room_share(category, t) for t in types])
-        look = on or category
-        if look in self.doorways.furniture_types:
-            col = self.doorways.furniture[:, self.doorways.furniture_types.index(look)]
-            return col / max(float(col.max()), 1e-9)
-        return np.ones(len(types))
+            w = np.array([self.priors.room_share(category, t) for t in types])
+        elif category in self.doorways.furniture_types:
+            w = self.doorways.furniture[:, self.doorways.furniture_types.index(category)]
+        if on in self.doorways.furniture_types:
+            w = w * self.doorways.furniture[:, self.doorways.furniture_types.index(on)]
+        return w / max(float(w.max()), 1e-9)
 
     def act(self, obs: dict, dets: list[dict], stage: str) -> dict[str, Any]:
         if self.drop and int(obs["held"][0]) >= 0:  # the tool just used is not needed now
-            spots = [d for d in dets if d["kind"] == "furniture"]
+            spots = [d for d in dets if d["kind"] == "furniture" and d["id"] not in self.refused]
             thing, primitive, extra = min(spots, key=lambda d: d["dist"], default=None), \
                 "place", {}
         else:
@@ -365,7 +395,8 @@ class Agent:
         if thing is not None:
             self.lock = (key, thing["id"], primitive, extra)
         elif self.lock is not None and self.lock[0] == key:
-            again = [d for d in dets if d["id"] == self.lock[1]]
+            again = [d for d in dets if d["id"] == self.lock[1]
+                     and d["id"] not in self.refused]
             if again:
                 thing, primitive, extra = again[0], self.lock[2], self.lock[3]
             else:
@@ -386,17 +417,27 @@ class Agent:
     def search(self, obs: dict, dets: list[dict]) -> dict[str, Any]:
         """Nothing it needs is in view. In a room worth searching it looks at the likeliest
         furniture not yet seen from close up, turning in place to find some; once none is
-        left (or after a while) it leaves by the doorway most likely to lead on."""
+        left (or after a while) it leaves by the doorway most likely to lead on. What it
+        has looked at in this room counts for one thing sought: a new one starts afresh."""
+        sought = (self.current, self.fetching(obs), self.loose())
+        if sought != self.sought:
+            self.sought = sought
+            self.inspected.clear()
+            self.in_room = min(self.in_room, ROOM_PATIENCE // 2)
+            self.roams = 0
         if int(obs["collided"][0]):
             return self.follow_wall(obs, dets)
         if self.clear > 0:  # just through a doorway: into the room first
             self.clear -= 1
             return self.toward(obs, 0.0, 1.0)
-        patience = ROOM_PATIENCE // 3 if self.revisit else ROOM_PATIENCE
+        # time in a room in proportion to how likely what it wants is in a room of its type
+        t = self.doorways.type_index(self.room_type or None)
+        share = 1.0 if t is None or self.loose() else float(self.want_types(obs)[t])
+        patience = max(MIN_PATIENCE, ROOM_PATIENCE * share) / (3 if self.revisit else 1)
         if not self.leaving(obs) and self.in_room < patience:
             place = self.promising(obs, dets)
+            self.place = None if place is None else place["id"]
             if place is not None:  # go and look at it from close up
-                self.scan = 0
                 if place["kind"] == "container" and place["state"] == "closed":
                     if place["dist"] <= SIZES.get(place["category"], 0.5) + 0.55 and \
                             abs(place["bearing"]) < 0.6:
@@ -405,9 +446,9 @@ class Agent:
                         return {"primitive": "move", "move": [
                             0.0, max(-1.0, min(1.0, place["bearing"] / (math.pi / 4)))]}
                 return self.toward(obs, place["bearing"], place["dist"])
-            if self.scan < SCAN:
+            if self.scan < SCAN:  # look around
                 self.scan += 1
-                return {"primitive": "move", "move": [0.0, 1.0]}  # look around
+                return {"primitive": "move", "move": [0.0, 1.0]}
             if self.roam == 0 and self.roams < ROAMS:
                 self.roam, self.roams = ROAM, self.roams + 1
             if self.roam > 0:  # into the open part of the room, then look around again
@@ -487,16 +528,16 @@ class Agent:
         room = self.room_wanted(obs)
         if room is not None:
             return bool(self.room_type and self.room_type != room)
-        if self.loose():
+        if self.loose() or not self.room_type:
             return False
-        category, _, _ = self.wanted_now(obs)
-        return self.priors.room_share(category, self.room_type or None) < UNLIKELY
+        t = self.doorways.type_index(self.room_type)
+        return t is not None and float(self.want_types(obs)[t]) < UNLIKELY
 
     def room_wanted(self, obs: dict) -> str | None:
         """The room type the goal names for what is needed next, if any (for the thing to
         fetch, until it takes the description loosely)."""
         goal = self.goals[self.current]
-        if int(obs["held"][0]) < 0:
+        if self.fetching(obs):
             ref = goal["item"] if goal["kind"] == "place" else goal["tool"]
             return None if self.loose() else ref.get("room")
         return (goal["dest"] if goal["kind"] == "place" else goal["target"]).get("room")
@@ -513,6 +554,11 @@ class Agent:
             return
         if reason == "out_of_reach" and self.last["primitive"] in ("open", "close"):
             self.nudge = {"primitive": "move", "move": [0.4, 0.0]}
+            return
+        if self.last["primitive"] == "place" and reason in ("receptacle_full",
+                                                            "not_a_receptacle"):
+            if target not in self.refused:
+                self.refused.append(target)
             return
         if reason == "locked":
             if target not in self.locked:
@@ -550,6 +596,8 @@ class Agent:
             if int(obs["room"][0]) >= 0 and int(obs["room"][0]) != self.room:
                 room = int(obs["room"][0])
                 self.new_room(room, obs["room_name"], revisit=room in self.recent)
+            elif self.room < 0 and not self.room_type:
+                self.room_type = self.recognise(dets)
             for m in ts.messages:
                 if m.type == "instruction" and "text" in m.data:
                     self.goals = parse(m.data["text"])

@@ -45,3 +45,12 @@ class Doorways:
         p = self.behind(room_type, seen)
         further = self.neighbour @ want
         return float(p @ (want + 0.3 * further * np.minimum(self.degree, 3.0) / 3.0))
+
+    def room_of(self, seen: list[str]) -> np.ndarray:
+        """P(type of the room it stands in) from the furniture categories it sees in it
+        (no sign read yet): the same likelihoods, from a flat prior."""
+        p = np.ones(len(self.room_types))
+        for category in set(seen):
+            if category in self.furniture_types:
+                p *= self.furniture[:, self.furniture_types.index(category)]
+        return p / max(float(p.sum()), 1e-12)

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -44,7 +44,26 @@ from plugins.track1._budgets import backup_places
 from plugins.track1._types import ExceptionRecord, PlannedException, Task, Track1Plan
 
 if TYPE_CHECKING:
-    from plugins.track1._episode import Track1Episode
+    from simhost.track1 import HouseEnv
+
+
+class LiveEpisode(Protocol):
+    """What an exception reads and changes of the live episode (``Track1Episode``)."""
+
+    env: HouseEnv
+    task: Task
+    plan: Track1Plan | None
+    steps: int
+
+    @property
+    def house(self) -> Any:
+        """The simulated house."""
+
+    def perceived_ids(self) -> set[int]:
+        """Ids in the agent's detections at this step."""
+
+    def recoverable(self) -> bool:
+        """Whether every goal can still be completed from where the robot is."""
 
 TRIGGER_DIST = 3.0
 EFFECT_RADIUS = 2.5
@@ -67,7 +86,7 @@ class ControlledException:
         self.skipped: str | None = None
 
     # ---------------------------------------------------------------- triggers
-    def start_execution(self, ep: Track1Episode) -> list[Event]:
+    def start_execution(self, ep: LiveEpisode) -> list[Event]:
         """Picks the subject; applies what happens as execution starts."""
         if self.plan is None or self.goal is None:
             return []
@@ -94,7 +113,7 @@ class ControlledException:
         return [{"event": "exception_armed", "type": kind, "subject": self.subject},
                 *self._trigger(ep)]
 
-    def on_step(self, ep: Track1Episode, action: Mapping[str, Any],
+    def on_step(self, ep: LiveEpisode, action: Mapping[str, Any],
                 result: Mapping[str, Any]) -> list[Event]:
         """Triggers an armed exception where it matters; notes its first observable effect."""
         if self.armed:
@@ -107,7 +126,7 @@ class ControlledException:
             return [{"event": "exception_observable", "type": rec.type, "step": ep.steps}]
         return []
 
-    def _trigger(self, ep: Track1Episode) -> list[Event]:
+    def _trigger(self, ep: LiveEpisode) -> list[Event]:
         assert self.plan is not None and self.goal is not None and self.subject is not None
         env, house, subject = ep.env, ep.house, self.subject
         x, y, _ = house.robot_pose
@@ -149,7 +168,7 @@ class ControlledException:
         assert self.plan is not None
         return [{"event": "exception_skipped", "type": self.plan.type, "reason": reason}]
 
-    def _apply(self, ep: Track1Episode, change: Callable[[], dict[str, Any]], *,
+    def _apply(self, ep: LiveEpisode, change: Callable[[], dict[str, Any]], *,
                quiet: bool = False) -> list[Event]:
         """Applies a change if every goal stays completable; records the exception."""
         from simhost.track1 import PerturbationError
@@ -176,7 +195,7 @@ class ControlledException:
         return [{"event": "exception", **self.record.model_dump(mode="json")}]
 
     # ---------------------------------------------------------------- observing
-    def _observable(self, ep: Track1Episode, action: Mapping[str, Any],
+    def _observable(self, ep: LiveEpisode, action: Mapping[str, Any],
                     result: Mapping[str, Any]) -> bool:
         """Whether the agent could notice the exception in this step's observation or
         result."""
@@ -200,7 +219,7 @@ class ControlledException:
         return f.kind != "container" or ep.house.world.containers[old] == "open"
 
 
-def route_doors(ep: Track1Episode) -> list[int]:
+def route_doors(ep: LiveEpisode) -> list[int]:
     """Doors of the agent's route, else of the shortest path through the task's rooms."""
     house, layout = ep.house, ep.env.layout
     plan = ep.plan or Track1Plan()

@@ -70,6 +70,9 @@ STEP = 0.5
 RADIUS = 0.3
 """Half the width of the corridor a move needs (the robot's radius and a margin, m)."""
 CLOSE = 2.2
+WORTH = 0.05
+"""A piece of furniture is worth a close look when at least this share of the items of the
+category rest on or in its kind (discounted by its distance: / (1 + m / 3))."""
 """Closer than this, what rests on a piece of furniture would be in sight."""
 
 
@@ -315,9 +318,10 @@ class Agent:
         return (targets[0] if targets else None), "use", {"tool": held}
 
     def promising(self, obs: dict, dets: list[dict]) -> dict | None:
-        """The piece of furniture in view most likely to hold what is wanted (learned priors
-        over furniture category and this room's type), among those of this room not yet
-        looked at from close up. Marks what it is close to and faces as looked at."""
+        """The piece of furniture in view most likely to hold what is wanted (the learned
+        share of its category resting on that kind, nearer first), among those of this
+        room not yet looked at from close up. Marks what it is close to and faces as looked
+        at."""
         category, _, on = self.wanted_now(obs)
         room = self.room_wanted(obs)
         if self.loose() and self.fetching(obs):
@@ -337,18 +341,27 @@ class Agent:
         kept = [d for d in dets if d["id"] == self.place and d["id"] not in self.inspected]
         if kept:  # keeps to the piece it chose while it stays in view
             return kept[0]
-        best, best_p = None, 0.04
+        best, best_p = None, WORTH
         for d in dets:
             if d["kind"] not in ("furniture", "container") or d["id"] in self.inspected:
                 continue
             if abs(d["bearing"]) > 1.0 or d["dist"] > 4.5 or self.through(d, dets):
                 continue
-            p = self.priors.where(category, d["category"], self.room_type or None)
+            p = self.rests_on(category, d["category"])
             if on is not None:  # the instruction says what it rests on
                 p = 1.0 if d["category"] == on else 0.0
             if p / (1 + d["dist"] / 3) > best_p:
                 best, best_p = d, p / (1 + d["dist"] / 3)
         return best
+
+    def rests_on(self, category: str, furniture: str) -> float:
+        """The learned share of the items of a category that rest on or in a piece of this
+        furniture category (whether this room is worth searching is decided apart)."""
+        if category not in self.priors.items or furniture not in self.priors.furniture:
+            return 0.0
+        table = self.priors.tables["category_furniture"]
+        return float(table[self.priors.items.index(category),
+                           self.priors.furniture.index(furniture)])
 
     def wanted_now(self, obs: dict) -> tuple[str, str | None, str | None]:
         """The category needed next, the room the instruction names for it and what the

@@ -7,19 +7,17 @@ Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), ``schemas`` (the p
 
 - ``demonstration``: reads the packet where the host says (``$EAGC_INPUT/<folder>``) and
   ends the stage.
-- ``parsing``: segments the demonstration into its key stages (the manifest's labels and
-  state-change annotations: grasp, release, ...), takes from it what the observation
-  cannot show — the goal annotation's magnitude (the turn, the opening fraction, the
-  depth), the last key stage (press or pull), the slot whose tool it took — writes
-  ``task_model.json`` and ends the stage.
-  Nothing moves here.
-- ``execution``: the family's scripted controller (``controllers.py``), closed on filtered
-  observations (``perception.py``); when it is through without success it ends the attempt
-  and runs again (an opening's measured range is kept across attempts).
+- ``parsing``: cuts the demonstration into phases (``parse.py``: which row the hand held,
+  how, relative to what, where it ended or how it moved), takes from the packet what the
+  observation cannot show (the goal annotation's magnitude, the last key stage, the
+  mechanism kind the annotations name, the slot whose tool it took), writes
+  ``task_model.json`` and ends the stage. Nothing moves here.
+- ``execution``: the generic controller of each phase in turn (``generic.py``: carry, drive,
+  tool), closed on filtered observations (``perception.py``); when it is through without
+  success it ends the attempt and runs again.
 
-It does what the demonstration did, with the same stages and the same tool slot; it does
-not check whether the instance's mechanism, direction or useful tool differ, nor verify the
-goal after acting.
+It does what the demonstration did, with the same phases, end states and tool slot; it
+does not check whether the instance's mechanism, direction or useful tool differ.
 """
 
 from __future__ import annotations
@@ -29,7 +27,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from controllers import CONTROLLERS, View
+from controllers import View
+from generic import execute
+from parse import DemoParse, parse
 from taskmodel import task_model
 
 from schemas import DemoManifest
@@ -37,6 +37,9 @@ from simhost.agent import OutputFiles, RemoteEnv
 
 GIVE_UP_STEPS = 10  # idle steps after the controller is through before ending the attempt
 GOAL_EVENTS = ("turned", "opened", "closed", "inserted", "pressed", "aligned")
+# Goal annotations that name a state (the part ends somewhere relative to the others); the
+# others name a motion (the part moves by what the demonstration moved it).
+STATE_EVENTS = ("opened", "closed", "inserted", "placed", "aligned")
 
 
 def read_packet(folder: Path) -> tuple[DemoManifest, dict[str, np.ndarray]]:
@@ -74,6 +77,9 @@ def demo_hints(man: DemoManifest, arrays: dict[str, np.ndarray]) -> dict[str, An
             hints["turn"] = float(yaw[let_go] - yaw[grasp])
     elif man.family == "opening":
         hints["mode"] = man.stage_names[2]
+        # the annotations name the part the hand took: drawer, cover or lid
+        kinds = {"drawer": "drawer", "cover": "sliding_cover", "lid": "swivel_lid"}
+        hints["kind"] = next((kinds[e.part] for e in man.events if e.part in kinds), "drawer")
         if goal is not None:
             hints["fraction"] = goal.value
     elif man.family == "insertion" and goal is not None:
@@ -85,6 +91,9 @@ def demo_hints(man: DemoManifest, arrays: dict[str, np.ndarray]) -> dict[str, An
         moved = [float(np.linalg.norm(parts[-1, 2 * s, 1:3] - parts[0, 2 * s, 1:3]))
                  if parts[0, 2 * s, 0] > 0.5 else -1.0 for s in (0, 1)]
         hints["slot"] = int(np.argmax(moved))
+        if hints["mechanism"] == "press":  # how far the target went down, at rest before/after
+            z = parts[:, 4, 3]
+            hints["press_depth"] = round(float(np.mean(z[:8]) - np.mean(z[-8:])), 3)
     return hints
 
 
@@ -101,6 +110,7 @@ class Agent:
         self.view: View | None = None
         self.first: View | None = None
         self.dev = False
+        self.dp: DemoParse | None = None
 
     def log(self, event: str, stage: str, **data: Any) -> None:
         self.files.log(step=self.steps, stage=stage, event=event, data=data)
@@ -126,8 +136,20 @@ class Agent:
         self.measured = self.hints  # the controllers add what they measure (a range, ...)
         self.write_model(ts.stage)
 
+    def demo_parse(self) -> DemoParse:
+        if self.dp is None:
+            self.dp = parse(self.manifest, self.arrays)
+        return self.dp
+
+    def make_view(self, obs: dict[str, Any]) -> View:
+        dp = self.demo_parse()
+        view = View(len(obs["parts"]), dp.movable, dp.reach, dp.links)
+        view.update(obs, reset=True)
+        return view
+
     def controller(self, view: View) -> Any:
-        return CONTROLLERS[self.family](view, self.hints)
+        goal = next((e for e in self.manifest.events if e.event in GOAL_EVENTS), None)
+        return execute(view, self.demo_parse(), goal is not None and goal.event in STATE_EVENTS)
 
     def after_attempt(self, data: dict[str, Any]) -> None:
         """Rewrite the task model when the attempt measured something (an opening's range)."""
@@ -149,15 +171,13 @@ class Agent:
                 if not self.family:
                     self.receive(ts)
                 if self.first is None:
-                    self.first = View(self.family, len(ts.observation["parts"]))
-                    self.first.update(ts.observation, reset=True)
+                    self.first = self.make_view(ts.observation)
                 self.parse(ts)
                 ts = env.end_stage()
                 continue
             if ts.observation.get("attempt", 0) != attempt:
                 attempt = int(ts.observation["attempt"])
-                self.view = View(self.family, len(ts.observation["parts"]))
-                self.view.update(ts.observation, reset=True)
+                self.view = self.make_view(ts.observation)
                 plan, idle = self.controller(self.view), 0
                 self.log("attempt", ts.stage, attempt=attempt)
             assert plan is not None and self.view is not None

@@ -14,7 +14,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from controllers import View, opening_kind, pick_tool
+import numpy as np
+from controllers import View
 
 from schemas import TaskModel
 
@@ -107,7 +108,7 @@ def _assembly(v: View, h: dict[str, Any], m: dict[str, Any], dev: bool) -> dict[
 
 
 def _opening(v: View, h: dict[str, Any], m: dict[str, Any], dev: bool) -> dict[str, Any]:
-    kind = opening_kind(v)
+    kind = str(h.get("kind", "drawer"))
     part = PART[kind]
     verb = h.get("mode", "open")
     goal = float(h.get("fraction", 0.8 if verb == "open" else 0.2))
@@ -134,7 +135,10 @@ def _opening(v: View, h: dict[str, Any], m: dict[str, Any], dev: bool) -> dict[s
 def _tool_use(v: View, h: dict[str, Any], m: dict[str, Any], dev: bool) -> dict[str, Any]:
     use = m.get("mechanism", h.get("mechanism", "press"))
     press = use == "press"
-    slot, length = pick_tool(v, press)
+    slot = int(m.get("slot", h.get("slot", 0)))
+    # the tool's length: from its grip row to its tip row, as observed on this instance
+    length = float(np.linalg.norm(v.pos(2 * slot)[:2] - v.pos(2 * slot + 1)[:2])) \
+        if v.present(2 * slot) else 0.0
     variables = [_v("ee_pose", "pose"), _v("gripper_width", "length"),
                  _v("tool_pose", "pose", "tool"), _v("tool_tip_position", "position", "tool"),
                  _v("tool_grasped", "bool", "tool")]
@@ -144,8 +148,10 @@ def _tool_use(v: View, h: dict[str, Any], m: dict[str, Any], dev: bool) -> dict[
         "max_grip_width": WMAX}
     if press:
         variables += [_v("button_travel", "length", "button"), _v("tip_in_well", "bool", "tool")]
-        constraints |= {"well_width": 0.022, "press_depth": 0.006}
-        success = [_c("button_travel", ">=", 0.006)]
+        depth = float(h.get("press_depth", 0.0))
+        if depth > 0.002:  # what the demonstration pressed it by (the well is not seen)
+            constraints |= {"press_depth": depth}
+        success = [_c("button_travel", ">=", max(depth, 0.002))]
         pre = ["tool_grasped", "tip_over_well"]
     else:
         tol = _tol("pull", dev)

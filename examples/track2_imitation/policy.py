@@ -121,6 +121,8 @@ def mean_pose(poses: list[np.ndarray]) -> np.ndarray:
     return np.array([*arr[:, :3].mean(axis=0), yaw])
 
 
+PATIENCE = 8  # steps at one pointer before it moves on regardless
+
 NEXT = ROWS
 """An attention value meaning "the part the demonstration takes at its next grasp"."""
 LIVE = 8
@@ -182,9 +184,11 @@ class Policy:
         self.target: np.ndarray | None = None
         self.seen: dict[int, list[np.ndarray]] = {}
         self.frozen: dict[tuple[int, int], np.ndarray] = {}
+        self.waited = 0
 
     def reset(self) -> None:
         self.k, self.target, self.seen, self.frozen = 0, None, {}, {}
+        self.waited = 0
 
     @property
     def done(self) -> bool:
@@ -205,6 +209,7 @@ class Policy:
         elif key not in self.frozen:  # the pointer passed the grasp: freeze the frame
             self.frozen[key] = now
         goal = absolute(self.rel[self.k], self.frozen[key])
+        reached = np.all(np.abs(goal - self.target) < [0.003, 0.003, 0.003, 0.05])
         step = np.clip(goal - self.target, -SCALE, SCALE)
         step[3] = float(np.clip(wrap(goal[3] - self.target[3]), -DYAW, DYAW))
         a = np.append(step / SCALE, self.actions[self.k, 4])
@@ -212,6 +217,12 @@ class Policy:
         a = np.clip(a, -1.0, 1.0)
         self.target = np.clip(np.clip(self.target + a[:4] * SCALE, prop[:4] - LEAD,
                                       prop[:4] + LEAD), LO, HI)
-        if np.all(np.abs(goal - self.target) < [0.003, 0.003, 0.003, 0.05]):
+        # the pointer moves on when the hand's target reached the demonstration's (before or
+        # after the correction: the correction must not hold the pointer back), or after
+        # PATIENCE steps at one pointer (a target the hand cannot reach is passed)
+        self.waited += 1
+        if reached or self.waited >= PATIENCE or np.all(
+                np.abs(goal - self.target) < [0.003, 0.003, 0.003, 0.05]):
             self.k = min(len(self.actions) - 1, self.k + 1)
+            self.waited = 0
         return a.astype(np.float32)

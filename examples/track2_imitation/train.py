@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Fit the imitation policy (``policy.npz``) on expert rollouts from the gymnasium benches.
 
-    python examples/track2_imitation/train.py [--pairs 40] [--split standard] [--seed 0]
+    python examples/track2_imitation/train.py [--pairs 80] [--split standard] [--seed 0]
 
 For every family, ``--pairs`` times: draw a source instance and a hidden instance around it
 (the split's variation), and record the scripted expert on both through the split's
@@ -17,7 +17,7 @@ of the two runs are matched by key stage and the fraction of it done. Then, per 
 - correction: a ridge regression from ``s(o) - s(d)`` to what the expert did beyond what
   following the attended part's moved target would do.
 
-Host side only (it needs MuJoCo); CPU, about 3 minutes on two cores for 40 pairs.
+Host side only (it needs MuJoCo); CPU, about 3 minutes on two cores for 80 pairs.
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ def align(demo: dict, run: dict) -> list[tuple[int, int, str]]:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--pairs", type=int, default=40)
+    ap.add_argument("--pairs", type=int, default=80)
     ap.add_argument("--split", default="standard")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--ridge", type=float, default=10.0)

@@ -63,6 +63,8 @@ class Agent(DemoParser):
         self.model.setdefault("turn", self.hints.get("turn", 1.0))
         if self.family == "assembly":
             self.model["stack_yaw"] = stack_yaw(self.manifest, self.arrays)
+        if self.family == "tool_use":
+            self.model["demo_mechanism"] = self.hints.get("mechanism", "press")
         self.measured = self.model
         self.sync()
         self.write_model(ts.stage)
@@ -75,14 +77,12 @@ class Agent(DemoParser):
             m["range_measured"] = m["range"]
         if "stack_yaw" in m:
             cons["stack_yaw"] = m["stack_yaw"]
-        if "sy" in m or m.get("kind") in ("sliding_cover", "swivel_lid"):
-            cons["mirrored"] = m.get("sy", 1.0) < 0
         if "kind" in m:
             cons["mechanism"] = m["kind"]
         m["constraints"] = cons
 
     def controller(self, view: Any) -> Any:
-        return SKILLS[self.family](view, self.model)
+        return SKILLS[self.family](view, self.model, self.demo_parse())
 
     def after_attempt(self, data: dict[str, Any]) -> None:
         self.sync()

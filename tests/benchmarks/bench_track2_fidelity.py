@@ -25,8 +25,8 @@ hidden, and with 4 instances per family per split one range's Avg moves by 10-15
 from the next (the README pools three). Time on the project's 2-core machine: well under
 1 s per in-process episode and 2-4 s per baseline episode; the default (8 per family, 2
 splits, every agent: 480 episodes, 2 jobs) took 17-19 minutes while other jobs kept the load
-average at 9-12; ``--per-family 4 --inproc`` (240 episodes) takes 4-5 minutes at a load
-average of 8. Not collected by pytest (the file is ``bench_*.py``).
+average at 9-12; ``--per-family 4 --inproc`` (240 episodes) takes 4-6 minutes at a load
+average of 4-8. Not collected by pytest (the file is ``bench_*.py``).
 """
 
 from __future__ import annotations

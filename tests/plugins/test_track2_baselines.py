@@ -79,8 +79,15 @@ def test_a_failed_attempt_is_heard_and_the_next_one_starts(runs: Path) -> None:
     r = run("track2_waypoint", seed=4104, index=4, runs=runs)  # a tool use
     assert r.status is EpisodeStatus.COMPLETED, r.failure
     ends = [x["data"] for x in _log(r) if x["event"] == "attempt" and "success" in x["data"]]
+    # Every attempt's result reached the agent, in order; each but the last failed.
+    assert [e["attempt"] for e in ends] == list(range(1, len(ends) + 1)), ends
+    assert not any(e["success"] for e in ends[:-1]), ends
+    assert len(ends) >= 2, f"the first attempt succeeded: no failure was heard ({ends})"
     if r.score.metrics["task_success"] == 0.0:
-        assert [e["attempt"] for e in ends] == [1, 2, 3]
+        assert len(ends) == 3
         assert "attempts=3, success at none" in r.score.notes
+    else:
+        assert ends[-1]["success"]
+        assert f"attempts={len(ends)}, success at {len(ends)}" in r.score.notes
     png = TRACK.picture(Path(r.episode_dir or ""))
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -3,7 +3,7 @@
 
     python tests/benchmarks/bench_track2_fidelity.py [--first-seed N] [--per-family K]
         [--splits standard,challenge] [--agents oracle,nothing,waypoint,demoparser,...]
-        [--jobs 2] [--json FILE]
+        [--jobs 2] [--json FILE] [--inproc] [--keep-runs]
 
 For every split, episode ``i`` of ``5 K`` has seed ``first_seed + i`` and index ``i`` (so
 family ``i mod 5``: ``K`` instances of each family per split), exactly as a campaign's
@@ -21,12 +21,14 @@ Targets (issue 12): Avg within ±10 of the paper (imitation 28.7, waypoint 32.5,
 36.6, task model 50.8) and in the same order; success well below 100 %; the task-model
 baseline highest on task-model %; attempts between 1.5 and 3; oracle >= 95 and nothing <= 5
 on every split. Check them on several disjoint seed ranges: the organizers' seeds are
-hidden, and with 4 instances per family per split one range's Avg moves by 10-15 points
-from the next (the README pools three). Time on the project's 2-core machine: well under
-1 s per in-process episode and 2-4 s per baseline episode; the default (8 per family, 2
-splits, every agent: 480 episodes, 2 jobs) took 17-19 minutes while other jobs kept the load
-average at 9-12; ``--per-family 4 --inproc`` (240 episodes) takes 4-6 minutes at a load
-average of 4-8. Not collected by pytest (the file is ``bench_*.py``).
+hidden, and with 4 instances per family per split one range's Avg moves by 10-15 points from
+the next (the README pools three ranges of 8 per family). Time on the project's 2-core
+machine: well under 1 s per in-process episode and 2-4 s per baseline episode; the default
+(8 per family, 2 splits, every agent: 480 episodes, 2 jobs) took 17-19 minutes while other
+jobs kept the load average at 9-12; ``--per-family 4 --inproc`` (240 episodes) takes 4-6
+minutes at a load average of 4-8. The episodes' folders (logs, files, MCAP) go to a
+temporary folder removed at the end; ``--keep-runs`` keeps it and prints where. Not
+collected by pytest (the file is ``bench_*.py``).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -193,6 +196,8 @@ def main() -> int:
     ap.add_argument("--json", type=Path, default=None, help="also write every result here")
     ap.add_argument("--inproc", action="store_true", help="run the baselines' code in the "
                     "benchmark's processes (no worker, Zenoh or agent process: quicker)")
+    ap.add_argument("--keep-runs", action="store_true", help="keep the episodes' folders "
+                    "(logs, files, MCAP) and print where; removed at the end by default")
     args = ap.parse_args()
     splits = args.splits.split(",")
     agents = [a for a in args.agents.split(",") if a in ("oracle", "nothing")
@@ -206,14 +211,20 @@ def main() -> int:
     runs = tempfile.mkdtemp(prefix="eagc-t2b-", dir="/tmp")
     tasks = [(a, s, args.first_seed + i, i, runs, args.inproc) for a in agents for s in splits
              for i in range(n)]
-    with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        futures = [pool.submit(run_one, *t) for t in tasks]
-        results: list[tuple[tuple[Any, ...], dict[str, Any]]] = []
-        for k, (t, f) in enumerate(zip(tasks, futures, strict=True)):
-            results.append((t, f.result()))
-            if (k + 1) % 20 == 0:
-                print(f"  {k + 1}/{len(tasks)} episodes ({time.monotonic() - t0:.0f} s)",
-                      file=sys.stderr, flush=True)
+    results: list[tuple[tuple[Any, ...], dict[str, Any]]] = []
+    try:
+        with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+            futures = [pool.submit(run_one, *t) for t in tasks]
+            for k, (t, f) in enumerate(zip(tasks, futures, strict=True)):
+                results.append((t, f.result()))
+                if (k + 1) % 20 == 0:
+                    print(f"  {k + 1}/{len(tasks)} episodes ({time.monotonic() - t0:.0f} s)",
+                          file=sys.stderr, flush=True)
+    finally:
+        if args.keep_runs:
+            print(f"episode folders kept in {runs}", file=sys.stderr)
+        else:
+            shutil.rmtree(runs, ignore_errors=True)
     failed = [(t[0], t[1], t[2], r.get("error") or r["status"]) for t, r in results
               if r["status"] != "completed" or r.get("error")]
     for split in [*splits, "all"]:

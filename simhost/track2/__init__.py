@@ -51,7 +51,7 @@ from ._errors import (
     StateError,
     Track2Error,
 )
-from ._families import family_step_cap
+from ._families import family_step_cap, task_truth
 from ._params import (
     FAMILIES,
     PARAM_TABLES,
@@ -62,7 +62,7 @@ from ._params import (
     sample_instance,
 )
 from ._register import ENV_IDS, env_id, register_envs
-from ._truth import TaskTruth, TruthConstraint, TruthCriterion, TruthVariable, task_truth
+from ._truth import TaskTruth, TruthConstraint, TruthCriterion, TruthVariable
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 

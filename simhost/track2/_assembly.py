@@ -45,7 +45,7 @@ from ._family import (
 from ._truth import TaskTruth
 
 if TYPE_CHECKING:
-    from ._env import BenchEnv
+    from ._family import Bench
     from ._sim import Sim
 
 SCALES = (1.0, 0.85, 0.72)
@@ -229,7 +229,7 @@ class AssemblyTask(FamilyTask):
         )
 
     # -- expert --------------------------------------------------------------------------------
-    def plan(self, env: BenchEnv) -> Plan:
+    def plan(self, env: Bench) -> Plan:
         e = self.e
         for i, b in enumerate(self.ids):
             for _ in range(3):  # place, look, and place again if it is off
@@ -242,7 +242,7 @@ class AssemblyTask(FamilyTask):
                     break
         yield from idle(env)
 
-    def _lower(self, env: BenchEnv, i: int) -> Plan:
+    def _lower(self, env: Bench, i: int) -> Plan:
         """Lower part ``i`` onto its support (stops when it rests or cannot go lower)."""
         stuck = 0
         for _ in range(40):
@@ -254,7 +254,7 @@ class AssemblyTask(FamilyTask):
             yield from move(env, np.array([*ee[:2], ee[2] - step]), ee[3], 0.0, max_steps=1)
             stuck = stuck + 1 if env.sim.ee()[2] > ee[2] - 0.0005 else 0
 
-    def _place(self, env: BenchEnv, i: int, b: int) -> Plan:
+    def _place(self, env: Bench, i: int, b: int) -> Plan:
         """Pick part ``i`` where it lies, carry it over its support, lower it, let go."""
         e = self.e
         pos = e.pos(b)

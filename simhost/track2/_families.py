@@ -6,6 +6,7 @@ from . import _assembly, _insertion, _opening, _rotation, _tool_use
 from ._config import BenchConfig
 from ._family import FamilyTask
 from ._params import InstanceParams
+from ._truth import TaskTruth
 
 TASKS: dict[str, type[FamilyTask]] = {
     "insertion": _insertion.InsertionTask,
@@ -24,3 +25,9 @@ def make_task(params: InstanceParams, config: BenchConfig | None = None) -> Fami
 def family_step_cap(family: str) -> int:
     """The step cap of one attempt of ``family`` (its expert needs well under it)."""
     return TASKS[family].max_steps
+
+
+def task_truth(params: InstanceParams, config: BenchConfig | None = None) -> TaskTruth:
+    """Stages, state variables, constraints, preconditions and success criteria of ``params``
+    under the split's ``config`` (its tolerances; default: the dev split's)."""
+    return make_task(params, config).truth()

@@ -44,13 +44,23 @@ from ._params import InstanceParams
 from ._truth import TaskTruth, TruthConstraint, TruthCriterion, TruthVariable
 
 if TYPE_CHECKING:
-    from ._env import BenchEnv
     from ._sim import Sim
 
 GOAL_NAMES = ("stated", "g1", "g2", "g3")
 GOAL_SIZE = len(GOAL_NAMES)
 Action = np.ndarray
 Plan = Iterator[Action]
+
+
+class Bench(Protocol):
+    """What a family task uses of the bench it is bound to (``BenchEnv``)."""
+
+    sim: Sim
+
+    @property
+    def control_target(self) -> np.ndarray:
+        """The hand's current control target (x, y, z, yaw)."""
+        ...
 
 
 class Eye(Protocol):
@@ -185,7 +195,7 @@ class FamilyTask(ABC):
         """Stages, state variables, constraints, preconditions and success criteria."""
 
     @abstractmethod
-    def plan(self, env: BenchEnv) -> Plan:
+    def plan(self, env: Bench) -> Plan:
         """The scripted expert: yields one action per step, reading poses through ``self.e``."""
 
     # -- helpers -------------------------------------------------------------------------------
@@ -248,7 +258,7 @@ def nearest_yaw(yaw: float, period: float, near: float = 0.0) -> float:
 
 
 def move(
-    env: BenchEnv,
+    env: Bench,
     goal: np.ndarray,
     yaw: float,
     width: float,
@@ -278,7 +288,7 @@ def move(
 
 
 def pick(
-    env: BenchEnv, top: np.ndarray, yaw: float, open_w: float, depth: float, lift_z: float
+    env: Bench, top: np.ndarray, yaw: float, open_w: float, depth: float, lift_z: float
 ) -> Plan:
     """Come down over a part whose top centre is ``top``, close ``depth`` below it, lift."""
     yield from move(env, np.array([top[0], top[1], top[2] + 0.04]), yaw, open_w, tol=0.004)
@@ -288,7 +298,7 @@ def pick(
     yield from move(env, np.array([ee[0], ee[1], lift_z]), yaw, 0.0, tol=0.004)
 
 
-def descend(env: BenchEnv, goal: np.ndarray, yaw: float, width: float, *,
+def descend(env: Bench, goal: np.ndarray, yaw: float, width: float, *,
             speed: float = 0.6) -> Plan:
     """Come straight down to ``goal``; stop early when the hand stops going down (3 steps
     with less than 0.5 mm), i.e. something is in the way."""
@@ -304,7 +314,7 @@ def descend(env: BenchEnv, goal: np.ndarray, yaw: float, width: float, *,
             return
 
 
-def reach_down(env: BenchEnv, goal: np.ndarray, yaw: float, width: float, *,
+def reach_down(env: Bench, goal: np.ndarray, yaw: float, width: float, *,
                above: float = 0.05) -> Plan:
     """Come down over ``goal`` to it; when something stops the fingers above it (an edge a
     calibration error put under a finger), lift, shift by 4 then 8 mm along and across the
@@ -322,7 +332,7 @@ def reach_down(env: BenchEnv, goal: np.ndarray, yaw: float, width: float, *,
 
 
 def servo(
-    env: BenchEnv,
+    env: Bench,
     error: Callable[[], tuple[np.ndarray, float]],
     z: float,
     *,
@@ -341,13 +351,13 @@ def servo(
         yield from move(env, goal, ee[3] + yaw_err, 0.0, max_steps=1)
 
 
-def hold(env: BenchEnv, steps: int, width: float) -> Plan:
+def hold(env: Bench, steps: int, width: float) -> Plan:
     """Keep the hand still (target where it is) and command ``width``."""
     for _ in range(steps):
         yield action(np.zeros(3), 0.0, width)
 
 
-def grip(env: BenchEnv, width: float = 0.0, steps: int = 6) -> Plan:
+def grip(env: Bench, width: float = 0.0, steps: int = 6) -> Plan:
     """Close the fingers (or open them gently, 6 mm per step) and wait for them to settle."""
     now = env.sim.width()
     if width > now + 0.006:
@@ -356,7 +366,7 @@ def grip(env: BenchEnv, width: float = 0.0, steps: int = 6) -> Plan:
     yield from hold(env, steps, width)
 
 
-def idle(env: BenchEnv, width: float | None = None) -> Plan:
+def idle(env: Bench, width: float | None = None) -> Plan:
     """Hold forever: what the expert does once its plan is through."""
     w = env.sim.width() if width is None else width
     while True:

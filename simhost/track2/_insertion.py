@@ -42,7 +42,7 @@ from ._family import (
 from ._truth import TaskTruth
 
 if TYPE_CHECKING:
-    from ._env import BenchEnv
+    from ._family import Bench
 
 WALL = 0.015
 CHAMFER = 0.002  # the hole's rim is chamfered: it guides a peg up to 2 mm off centre
@@ -219,7 +219,7 @@ class InsertionTask(FamilyTask):
         )
 
     # -- expert --------------------------------------------------------------------------------
-    def plan(self, env: BenchEnv) -> Plan:
+    def plan(self, env: Bench) -> Plan:
         e = self.e
         peg_yaw = e.yaw(self.peg)
         hole_yaw = self.hole_yaw(e)
@@ -251,7 +251,7 @@ class InsertionTask(FamilyTask):
         yield from move(env, np.array([*ee[:2], ee[2] + 0.05]), ee[3], open_w, tol=0.005)
         yield from idle(env, open_w)
 
-    def _align(self, env: BenchEnv, z: float) -> Plan:
+    def _align(self, env: Bench, z: float) -> Plan:
         """Servo the peg's bottom over the hole centre and its yaw onto the hole's."""
         e = self.e
 
@@ -263,7 +263,7 @@ class InsertionTask(FamilyTask):
 
         yield from servo(env, error, z)
 
-    def _search(self, env: BenchEnv) -> Plan:
+    def _search(self, env: Bench) -> Plan:
         """Probe around the aligned position, nearest points first, until the peg drops in:
         what perception cannot settle (a part's pose error), contact does."""
         e = self.e
@@ -283,7 +283,7 @@ class InsertionTask(FamilyTask):
                 return
             yield from move(env, np.array([*(centre + off), hover]), ee[3], 0.0, max_steps=2)
 
-    def _descend(self, env: BenchEnv) -> Plan:
+    def _descend(self, env: Bench) -> Plan:
         """Lower the peg: servo xy above the rim, hold xy once inside, stop when stuck."""
         e = self.e
         stuck = 0

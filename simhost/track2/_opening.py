@@ -46,7 +46,7 @@ from ._family import (
 from ._truth import TaskTruth
 
 if TYPE_CHECKING:
-    from ._env import BenchEnv
+    from ._family import Bench
     from ._sim import Sim
 
 START_JITTER = 0.5  # start fraction jitter per radian of attempt_jitter_rad
@@ -262,7 +262,7 @@ class OpeningTask(FamilyTask):
         )
 
     # -- expert --------------------------------------------------------------------------------
-    def plan(self, env: BenchEnv) -> Plan:
+    def plan(self, env: Bench) -> Plan:
         e = self.e
         frame = (e.pos(self.housing)[:2], e.yaw(self.housing))
         q_goal = self.goal_frac * self.range

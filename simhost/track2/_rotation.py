@@ -39,7 +39,7 @@ from ._family import (
 from ._truth import TaskTruth
 
 if TYPE_CHECKING:
-    from ._env import BenchEnv
+    from ._family import Bench
     from ._sim import Sim
 
 STOP = 0.05  # rad: the stop behind the start
@@ -217,7 +217,7 @@ class RotationTask(FamilyTask):
             {"turn": round(abs(self.turn), 6), "direction": "ccw" if self.sign > 0 else "cw"},
         )
 
-    def plan(self, env: BenchEnv) -> Plan:
+    def plan(self, env: Bench) -> Plan:
         e = self.e
         theta = e.yaw(self.knob)  # continuous in the observed eye; unwrapped below
         target = theta + self.turn

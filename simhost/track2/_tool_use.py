@@ -50,7 +50,7 @@ from ._family import (
 from ._truth import TaskTruth
 
 if TYPE_CHECKING:
-    from ._env import BenchEnv
+    from ._family import Bench
     from ._sim import Sim
 
 SLOTS = ((-0.14, 0.10), (-0.14, -0.10))
@@ -353,7 +353,7 @@ class ToolUseTask(FamilyTask):
         )
 
     # -- expert --------------------------------------------------------------------------------
-    def plan(self, env: BenchEnv) -> Plan:
+    def plan(self, env: Bench) -> Plan:
         e = self.e
         top = e.point(self.tool, (0.0, 0.0, HANDLE[2] if self.press else HOE_HANDLE_H))
         tool_yaw = e.yaw(self.tool)
@@ -369,7 +369,7 @@ class ToolUseTask(FamilyTask):
         yield from (self._press(env) if self.press else self._pull(env, yaw0 + turn))
         yield from idle(env, 0.0)
 
-    def _press(self, env: BenchEnv) -> Plan:
+    def _press(self, env: Bench) -> Plan:
         e = self.e
         target_xy = e.pos(self.target)[:2]
         z = self.depth + 0.02 + (env.sim.ee()[2] - e.site(self.tip_site)[2])
@@ -394,7 +394,7 @@ class ToolUseTask(FamilyTask):
             yield from move(env, np.array([*xy, ee[2] - step]), ee[3], 0.0, max_steps=1)
         yield from hold(env, 5, 0.0)
 
-    def _pull(self, env: BenchEnv, yaw: float) -> Plan:
+    def _pull(self, env: Bench, yaw: float) -> Plan:
         e = self.e
         ee = env.sim.ee()
         yield from move(env, np.array([*ee[:2], 0.08]), yaw, 0.0, tol=0.004, speed=0.7)

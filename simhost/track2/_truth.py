@@ -1,6 +1,6 @@
 """``TaskTruth``: the ground truth a team's ``task_model.json`` is compared with.
 
-One typed model for every family (``task_truth(params, config)``)::
+One typed model for every family (built by ``task_truth(params, config)`` of ``_families``)::
 
     TaskTruth(
       version="eagc-truth/v2", family="rotation",
@@ -51,8 +51,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from ._config import BenchConfig
-from ._params import Family, InstanceParams, Value
+from ._params import Family, Value
 
 TRUTH_VERSION = "eagc-truth/v2"
 
@@ -103,11 +102,3 @@ class TaskTruth(_Frozen):
             if c.name == name:
                 return c.value
         raise KeyError(f"{self.family} truth has no constraint {name!r}")
-
-
-def task_truth(params: InstanceParams, config: BenchConfig | None = None) -> TaskTruth:
-    """Stages, state variables, constraints, preconditions and success criteria of ``params``
-    under the split's ``config`` (its tolerances; default: the dev split's)."""
-    from ._families import make_task
-
-    return make_task(params, config).truth()

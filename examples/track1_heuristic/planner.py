@@ -201,6 +201,26 @@ class MapPlanner:
         self.failed.add(subject)
         return None
 
+    def frontiers(self, dist: np.ndarray, lo: np.ndarray) -> np.ndarray:
+        """The reachable frontier cells worth going to, in the window of ``dist`` (whose
+        corner is grid cell ``lo``): with enough unknown space around them, away from spots
+        set aside and from closed doors (a door is a goal of its own)."""
+        h, w = dist.shape
+        frontier = self.grid.frontier()[lo[0]:lo[0] + h, lo[1]:lo[1] + w] & (dist >= 0)
+        unknown = (~self.grid.known[lo[0]:lo[0] + h, lo[1]:lo[1] + w]).astype(np.int32)
+        mass = np.pad(unknown, 5).cumsum(0).cumsum(1)
+        window = mass[10:, 10:] - mass[:-10, 10:] - mass[10:, :-10] + mass[:-10, :-10]
+        frontier &= window[:h, :w] >= 15
+        for p in self.blacklist:
+            i, j = self.grid.cell(*p)
+            frontier[max(0, i - lo[0] - 6):i - lo[0] + 7, max(0, j - lo[1] - 6):j - lo[1] + 7] = 0
+        for door in self.model.of_kind("door"):
+            if door.state == "closed":
+                i, j = self.grid.cell(*door.position)
+                frontier[max(0, i - lo[0] - 10):i - lo[0] + 11,
+                         max(0, j - lo[1] - 10):j - lo[1] + 11] = 0
+        return frontier
+
     def next_goal(self) -> tuple | None:
         """The nearest frontier, closed door with unexplored space behind it, or closed
         container, by path length."""
@@ -227,19 +247,7 @@ class MapPlanner:
             c = cost(opener.stand(self.pose))
             if c is not None and (best is None or c < best[0]):
                 best = (c, ("door", door.id, opener))
-        frontier = self.grid.frontier()[lo[0]:lo[0] + h, lo[1]:lo[1] + w] & (dist >= 0)
-        unknown = (~self.grid.known[lo[0]:lo[0] + h, lo[1]:lo[1] + w]).astype(np.int32)
-        mass = np.pad(unknown, 5).cumsum(0).cumsum(1)
-        window = mass[10:, 10:] - mass[:-10, 10:] - mass[10:, :-10] + mass[:-10, :-10]
-        frontier &= window[:h, :w] >= 15
-        for p in self.blacklist:
-            i, j = self.grid.cell(*p)
-            frontier[max(0, i - lo[0] - 6):i - lo[0] + 7, max(0, j - lo[1] - 6):j - lo[1] + 7] = 0
-        for door in self.model.of_kind("door"):
-            if door.state == "closed":
-                i, j = self.grid.cell(*door.position)
-                frontier[max(0, i - lo[0] - 10):i - lo[0] + 11,
-                         max(0, j - lo[1] - 10):j - lo[1] + 11] = 0
+        frontier = self.frontiers(dist, lo)
         if frontier.any():
             cells = np.argwhere(frontier)
             k = int(np.argmin(dist[frontier]))

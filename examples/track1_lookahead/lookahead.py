@@ -128,20 +128,7 @@ class LookaheadPlanner(MapPlanner):
                       ) -> tuple[int, tuple[float, float], float] | None:
         """The nearest frontier of the range-scan map worth going to (as the heuristic): its
         cost (grid cells), where it is, and the unknown share of the 4 m around it."""
-        h, w = dist.shape
-        frontier = self.grid.frontier()[lo[0]:lo[0] + h, lo[1]:lo[1] + w] & (dist >= 0)
-        unknown = (~self.grid.known[lo[0]:lo[0] + h, lo[1]:lo[1] + w]).astype(np.int32)
-        mass = np.pad(unknown, 5).cumsum(0).cumsum(1)
-        window = mass[10:, 10:] - mass[:-10, 10:] - mass[10:, :-10] + mass[:-10, :-10]
-        frontier &= window[:h, :w] >= 15
-        for p in self.blacklist:
-            i, j = self.grid.cell(*p)
-            frontier[max(0, i - lo[0] - 6):i - lo[0] + 7, max(0, j - lo[1] - 6):j - lo[1] + 7] = 0
-        for door in self.model.of_kind("door"):
-            if door.state == "closed":
-                i, j = self.grid.cell(*door.position)
-                frontier[max(0, i - lo[0] - 10):i - lo[0] + 11,
-                         max(0, j - lo[1] - 10):j - lo[1] + 11] = 0
+        frontier = self.frontiers(dist, lo)
         if not frontier.any():
             return None
         cells = np.argwhere(frontier)

@@ -28,26 +28,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from perception import rot2, wrap, yaw_of
 
 from schemas import DemoManifest
 
 MOVED_M = 0.006  # a row that moved more than this (or 0.08 rad) during a phase moved
 LIFTED_M = 0.012  # a held part raised this far above where it rested was lifted
 YAW_M = 0.1  # m per rad when a displacement mixes a slide and a turn
-
-
-def wrap(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
-def yaw_of(q: Any) -> float:
-    w, x, y, z = (float(v) for v in q)
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-
-
-def rot2(yaw: float, v: Any) -> np.ndarray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
 
 
 def relative(pose: Any, frame: Any) -> np.ndarray:

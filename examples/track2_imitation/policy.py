@@ -6,8 +6,9 @@ family and key stage (``train.py``: the part in whose frame the expert's targets
 between instances; a row, or the part the demonstration takes at its next grasp). At run
 time::
 
-    target_k = pose(part_attended(k), at anchor(k))  (+)  rel_k   # the demo's target, moved
-    a_t      = clip(servo(target_k - control target) + W^T [s(o_t) - s(d_k), 1], -1, 1)
+    goal_k = pose(part_attended(k), at anchor(k))  (+)  rel_k  +  SCALE * c_k[:4]
+    a_t    = clip([servo(goal_k - control target), grip_k + c_k[4]], -1, 1)
+    c_k    = W^T [s(o_t) - s(d_k), 1]
 
 ``rel_k`` is the demonstration's control target after its ``k``-th action in the frame of
 the attended part as the demonstration observed it at the *anchor* of step ``k``: the last
@@ -16,11 +17,16 @@ acts, so a motion that moves the attended part (a turn, a slide) is reproduced a
 relative to where the part was when the hand took hold, not cancelled by following the part
 as it moves; at run time the anchor pose is the mean of the part's recent measurements when
 the pointer passes the anchor (before the first grasp: the latest mean, nothing is held
-yet). Training may instead pick a *live* frame for a stage (the part's latest mean, not
-frozen: ``LIVE`` added to the attention value) where that makes the runs agree better. The
-pointer ``k`` advances when the hand is near ``target_k`` (the phase follows progress, not
-the clock); the grip is the demonstration's. ``W`` is a small linear correction fitted on
-expert rollouts. No stage is checked, nothing is verified, nothing is remembered between
+yet). Training may instead pick a *live* frame for a phase (the part's latest mean, not
+frozen: ``LIVE`` added to the attention value) where that makes the runs agree better.
+``W`` is a small linear correction fitted on expert rollouts; it moves the goal (so the
+servo settles on it: added to the action, it held the target a few millimetres off the goal
+and the pointer waited out its patience at every step). The pointer ``k`` advances when the
+hand's target is near the goal (the phase follows progress, not the clock), or after
+``PATIENCE`` steps; before the demonstration's grip changes (a grasp, a release) the hand
+*itself* must be near the goal (the target leads it by up to ``LEAD``: a grip closed there
+took the part off-centre, a release let go short of the goal). The grip is the
+demonstration's. No stage is checked, nothing is verified, nothing is remembered between
 attempts. Numpy only; shared by the agent and the training script.
 """
 
@@ -108,6 +114,13 @@ def stage_kind(name: str) -> str:
     return name
 
 
+def near(a: np.ndarray, b: np.ndarray, tol: np.ndarray) -> bool:
+    """Whether poses ``[x, y, z, yaw]`` ``a`` and ``b`` agree within ``tol`` (yaw wrapped)."""
+    d = np.abs(np.asarray(a, dtype=float) - b)
+    d[3] = abs(wrap(float(a[3] - b[3])))
+    return bool(np.all(d < tol))
+
+
 def anchor_of(anchors: list[int], k: int) -> int:
     """The anchor of demonstration step ``k``: the last of ``anchors`` (grasp steps) at or
     before ``k``, else 0."""
@@ -121,6 +134,11 @@ def mean_pose(poses: list[np.ndarray]) -> np.ndarray:
     return np.array([*arr[:, :3].mean(axis=0), yaw])
 
 
+TOL = np.array([0.003, 0.003, 0.003, 0.05])
+"""How near the hand's target must be to the goal for the pointer to move on (m, rad)."""
+GATE_TOL = np.array([0.004, 0.004, 0.004, 0.08])
+"""How near the hand itself must be before the demonstration's grip changes (m, rad)."""
+GATE_PATIENCE = 24  # steps the hand may take to get there
 PATIENCE = 8  # steps at one pointer before it moves on regardless
 
 NEXT = ROWS
@@ -180,6 +198,9 @@ class Policy:
             self.rows.append(row)
             self.anchors.append(a)
             self.rel.append(relative(tgt[k], part_pose(parts[a, row])))
+        grip = np.sign(self.actions[:, 4])
+        self.gate = [bool(grip[k + 1] != grip[k]) if k + 1 < len(grip) else True
+                     for k in range(len(grip))]
         self.k = 0
         self.target: np.ndarray | None = None
         self.seen: dict[int, list[np.ndarray]] = {}
@@ -209,20 +230,29 @@ class Policy:
         elif key not in self.frozen:  # the pointer passed the grasp: freeze the frame
             self.frozen[key] = now
         goal = absolute(self.rel[self.k], self.frozen[key])
-        reached = np.all(np.abs(goal - self.target) < [0.003, 0.003, 0.003, 0.05])
+        # the correction moves the goal (in action units of one step), so the servo settles
+        # on it instead of fighting it, and the pointer's test below sees where it leads
+        corr = features(state(prop, parts), self.states[self.k]) @ self.w
+        goal = goal + corr[:4] * SCALE
+        reached = near(goal, self.target, TOL)
         step = np.clip(goal - self.target, -SCALE, SCALE)
         step[3] = float(np.clip(wrap(goal[3] - self.target[3]), -DYAW, DYAW))
-        a = np.append(step / SCALE, self.actions[self.k, 4])
-        a += features(state(prop, parts), self.states[self.k]) @ self.w
+        a = np.append(step / SCALE, self.actions[self.k, 4] + corr[4])
         a = np.clip(a, -1.0, 1.0)
         self.target = np.clip(np.clip(self.target + a[:4] * SCALE, prop[:4] - LEAD,
                                       prop[:4] + LEAD), LO, HI)
-        # the pointer moves on when the hand's target reached the demonstration's (before or
-        # after the correction: the correction must not hold the pointer back), or after
-        # PATIENCE steps at one pointer (a target the hand cannot reach is passed)
+        # the pointer moves on when the hand's target reached the goal (before or after this
+        # step), or after PATIENCE steps at one pointer (a target the hand cannot reach is
+        # passed); before the demonstration's grip changes (a grasp, a release) the hand
+        # itself must be at the goal, for up to GATE_PATIENCE steps: the target leads the
+        # hand by up to LEAD, and a grip that closes or opens there acts too early
         self.waited += 1
-        if reached or self.waited >= PATIENCE or np.all(
-                np.abs(goal - self.target) < [0.003, 0.003, 0.003, 0.05]):
+        moved_on = reached or near(goal, self.target, TOL)
+        patience = PATIENCE
+        if self.gate[self.k]:
+            moved_on = moved_on and near(goal, prop[:4], GATE_TOL)
+            patience = GATE_PATIENCE
+        if moved_on or self.waited >= patience:
             self.k = min(len(self.actions) - 1, self.k + 1)
             self.waited = 0
         return a.astype(np.float32)

@@ -1,10 +1,11 @@
 """The imitation policy (T-OSVI style): one demonstration in, actions out, no world model.
 
 The policy reads the demonstration as a sequence of hand targets and attends, at every
-phase, to one part: which part a key stage's motion is relative to is *learned* offline per
-family and key stage (``train.py``: the part in whose frame the expert's targets vary least
-between instances; a row, or the part the demonstration takes at its next grasp). At run
-time::
+phase, to one part: which part a phase's motion is relative to is *learned* offline per
+family and phase (``train.py``: the part in whose frame the expert's targets vary least
+between instances; a row, or the part the demonstration takes at its next grasp). A phase is
+one half of a key stage (``phases``): the start of a reach may be relative to one part and
+its end to another. At run time::
 
     goal_k = pose(part_attended(k), at anchor(k))  (+)  rel_k  +  SCALE * c_k[:4]
     a_t    = clip([servo(goal_k - control target), grip_k + c_k[4]], -1, 1)
@@ -114,6 +115,24 @@ def stage_kind(name: str) -> str:
     return name
 
 
+PHASES = 2
+"""Each key stage is cut into this many phases of equal length, each with its own attended
+part (the start of a reach may move relative to one part, its end relative to another)."""
+
+
+def phases(stages: list[str]) -> list[str]:
+    """The phase of every step, ``<stage kind>#<i>``, from the per-step stage names."""
+    out: list[str] = []
+    start = 0
+    for k in range(len(stages) + 1):
+        if k == len(stages) or (k > start and stages[k] != stages[start]):
+            n = k - start
+            out += [f"{stage_kind(stages[start])}#{min(PHASES - 1, PHASES * i // n)}"
+                    for i in range(n)]
+            start = k
+    return out
+
+
 def near(a: np.ndarray, b: np.ndarray, tol: np.ndarray) -> bool:
     """Whether poses ``[x, y, z, yaw]`` ``a`` and ``b`` agree within ``tol`` (yaw wrapped)."""
     d = np.abs(np.asarray(a, dtype=float) - b)
@@ -187,8 +206,9 @@ class Policy:
         self.live: list[bool] = []
         self.rel = []
         taken = grasped_rows(np.asarray(parts, dtype=float), anchors)
+        phase = phases([stage_of(key_stages, k) for k in range(len(actions))])
         for k in range(len(actions)):
-            att = attend.get(stage_kind(stage_of(key_stages, k)), 0)
+            att = attend.get(phase[k], 0)
             row = attended_row(att, np.asarray(parts), anchors, taken, k)
             live = att >= LIVE
             a = k + 1 if live else anchor_of(anchors, k)  # observation k + 1 follows action k

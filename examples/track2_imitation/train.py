@@ -8,12 +8,13 @@ For every family, ``--pairs`` times: draw a source instance and a hidden instanc
 observation channel (the registered gymnasium benches, ``eagc/Bench-<Family>-v0``). Steps
 of the two runs are matched by key stage and the fraction of it done. Then, per family:
 
-- attention: for each key stage, the part in whose frame (frozen at the last grasp, as
-  ``policy.py`` reads it) the expert's hand targets agree best between the two runs (the
-  motion is relative to it), among the parts that do not travel during that stage (a part
-  the hand carries says where it was, not where it goes; a knob turning in place counts);
-  or the same in a *live* frame (the part as it is now) among the parts that neither travel
-  nor turn (following a part the hand turns would cancel the turn);
+- attention: for each phase (half of a key stage, ``policy.phases``), the part in whose
+  frame (frozen at the last grasp, as ``policy.py`` reads it) the expert's hand targets
+  agree best between the two runs (the motion is relative to it), among the parts that do
+  not travel during that phase (a part the hand carries says where it was, not where it
+  goes; a knob turning in place counts); or the same in a *live* frame (the part as it is
+  now) among the parts that neither travel nor turn (following a part the hand turns would
+  cancel the turn);
 - correction: a ridge regression from ``s(o) - s(d)`` to what the expert did beyond what
   following the attended part's moved target would do.
 
@@ -46,8 +47,8 @@ from policy import (  # noqa: E402
     features,
     grasped_rows,
     part_pose,
+    phases,
     relative,
-    stage_kind,
     state,
     targets,
     wrap,
@@ -72,11 +73,13 @@ def rollout(env, expert_cls, seed: int) -> dict[str, np.ndarray | list[str]]:
         if term or trunc:
             break
     return {"proprio": np.asarray(prop, float), "parts": np.asarray(parts, float),
-            "actions": np.asarray(acts, float), "stages": stages, "grasps": grasps}
+            "actions": np.asarray(acts, float), "stages": stages, "grasps": grasps,
+            "phases": phases(stages[:-1])}
 
 
 def align(demo: dict, run: dict) -> list[tuple[int, int, str]]:
-    """``(run step, demo step, stage kind)`` matched by stage and the fraction done in it."""
+    """``(run step, demo step, demo step's phase)`` matched by stage and the fraction done
+    in it."""
     def spans(stages: list[str]) -> dict[str, list[int]]:
         out: dict[str, list[int]] = defaultdict(list)
         for k, s in enumerate(stages[:-1]):
@@ -90,7 +93,8 @@ def align(demo: dict, run: dict) -> list[tuple[int, int, str]]:
             continue
         for j, k in enumerate(ks):
             f = j / max(1, len(ks) - 1)
-            pairs.append((k, d[s][round(f * (len(d[s]) - 1))], stage_kind(s)))
+            j = d[s][round(f * (len(d[s]) - 1))]
+            pairs.append((k, j, demo["phases"][j]))
     return pairs
 
 
@@ -141,8 +145,8 @@ def main() -> int:
                                                                           run["actions"])
             moved: dict[str, np.ndarray] = {}  # travelled during the stage
             turned: dict[str, np.ndarray] = {}  # travelled or turned (no live frame then)
-            for kind in {stage_kind(x) for x in demo["stages"][:-1]}:
-                idx = [i for i, x in enumerate(demo["stages"][:-1]) if stage_kind(x) == kind]
+            for kind in set(demo["phases"]):
+                idx = [i for i, x in enumerate(demo["phases"]) if x == kind]
                 moved[kind] = np.ptp(demo["parts"][idx, :, 1:4], axis=0).max(axis=1) > 0.02
                 yaws = np.array([[yaw_of(q) for q in demo["parts"][i, :, 4:8]] for i in idx])
                 turned[kind] = moved[kind] | (np.abs(np.unwrap(yaws, axis=0)

@@ -9,11 +9,15 @@ look-ahead planner augmented with
   knows, else from the learned priors (the most likely room for an item's category, the
   likeliest state of a door or container);
 - an affordance table (which categories can wipe, cut, water), so that a missing tool is
-  replaced at once by the nearest known tool with the same use;
+  replaced at once by the nearest known tool with the same use, else searched for as any
+  tool with that use;
 - exception-triggered replanning on evidence, not on a single missed detection: an item
-  counts as gone only after it was not detected from close up, facing its place, three
-  times; a failed ``open`` or ``place`` marks the door locked or the container unavailable,
-  and the route or the destination is replanned at once;
+  counts as gone only after it was not detected from close up, facing its place in clear
+  view, three times. A vanished item of a place goal is relocated: followed by its instance
+  id, searched for at the backup places the rules allow (``vanish``, ``backup``), then
+  where it was; one never seen and missing where the instruction puts it is taken for
+  relocated too. A failed ``open`` or ``place`` marks the door locked or the container
+  unavailable, and the route or the destination is replanned at once;
 - descriptions matched on the room of what a thing rests on (a piece of furniture is seen
   from its own room much more often than a small item is): category, colour and a named
   room must fit, what it rests on breaks ties.

@@ -10,8 +10,9 @@ memory), opening closed containers; with none in view it searches by following t
 its right hand (furniture stands against walls, so this passes close to every surface and
 through every open doorway), opening closed doors ahead. A failed ``open`` or
 ``place`` that says ``locked`` or ``unavailable`` is logged as an exception. During
-exploration it follows the walls and reports every sighting to ``world_model.json`` (a
-write-only report: it never reads it back). Between steps it keeps only what a reactive policy
+exploration it follows the walls and reports every sighting, and every doorway it passes
+from one signed room into the next, to ``world_model.json`` (a write-only report: it never
+reads it back). Between steps it keeps only what a reactive policy
 needs to act at all: which goal of the instruction it is on (``parsing.py``), the room
 whose sign it read last, how long ago (after a while, or when the goal names another room,
 it leaves through a doorway in sight), the id of what it is approaching while that stays
@@ -94,8 +95,9 @@ class Agent:
         self.stuck = 0
         self.stage = ""
         self.new_stage()
-        self.report: dict[str, dict[int, dict[str, Any]]] = {
-            k: {} for k in ("rooms", "doors", "containers", "objects", "affordances")}
+        self.report: dict[str, dict[Any, dict[str, Any]]] = {
+            k: {} for k in ("rooms", "connections", "doors", "containers", "objects",
+                            "affordances")}
 
     # ------------------------------------------------------------------ its bounded state
     def new_stage(self) -> None:
@@ -115,9 +117,15 @@ class Agent:
         self.new_room(-1, "", revisit=False)
 
     def new_room(self, room: int, room_type: str, *, revisit: bool) -> None:
-        """Reads a room sign: what it keeps of the room it left is its id and its door."""
+        """Reads a room sign: what it keeps of the room it left is its id and its door.
+        Passing through a door from one signed room into the next is reported as a
+        connection of the two (to the report only, like every sighting)."""
         if self.room >= 0 and room != self.room:
             self.recent.append(self.room)
+            if room >= 0 and self.near_door is not None:
+                pair = (min(room, self.room), max(room, self.room))
+                self.report["connections"][pair] = {"rooms": list(pair),
+                                                    "door": self.near_door}
         self.entry = self.near_door if room != self.room else None
         self.room, self.room_type = room, room_type
         self.revisit = revisit

@@ -9,11 +9,15 @@ look-ahead planner augmented with
   knows, else from the learned priors (the most likely room for an item's category, the
   likeliest state of a door or container);
 - an affordance table (which categories can wipe, cut, water), so that a missing tool is
-  replaced at once by the nearest known tool with the same use;
+  replaced at once by the nearest known tool with the same use, else searched for as any
+  tool with that use;
 - exception-triggered replanning on evidence, not on a single missed detection: an item
-  counts as gone only after it was not detected from close up, facing its place, three
-  times; a failed ``open`` or ``place`` marks the door locked or the container unavailable,
-  and the route or the destination is replanned at once;
+  counts as gone only after it was not detected from close up, facing its place in clear
+  view, three times. A vanished item of a place goal is relocated: followed by its instance
+  id, searched for at the backup places the rules allow (``vanish``, ``backup``), then
+  where it was; one never seen and missing where the instruction puts it is taken for
+  relocated too. A failed ``open`` or ``place`` marks the door locked or the container
+  unavailable, and the route or the destination is replanned at once;
 - descriptions matched on the room of what a thing rests on (a piece of furniture is seen
   from its own room much more often than a small item is): category, colour and a named
   room must fit, what it rests on breaks ties.
@@ -33,11 +37,24 @@ from simhost.agent import TimeStep
 
 NOISE = (0.02, 0.03)
 """Position noise of a detection, a + b × distance (m): the official splits' sensor."""
-GONE_LOOKS = 2
+GONE_LOOKS = 3
 """Looks at an item's place in clear view, from close up, without the item, before it counts
 as gone (a detection is missed about one time in eight there)."""
 DOOR_PRIOR, CONTAINER_PRIOR = "open", "closed"
 """The likelier state of a door and of a container that was never seen."""
+BACKUP_FURNITURE = ("shelf", "cabinet")
+"""Where a relocated item can end up besides the storage room (the track's rules)."""
+SEEN_ELSEWHERE = 0.05
+"""What a backup place still counts for once looked at since the item vanished."""
+
+
+class Lost:
+    """An item that vanished from its place (a relocation): its id when it had been seen
+    (``None``: never seen, missing from where the instruction puts it), the rooms it is not
+    in and the things already known when it vanished (a look-alike among them is not it)."""
+
+    def __init__(self, item: int | None, rooms: set[int], known: set[int]) -> None:
+        self.item, self.rooms, self.known = item, rooms, known
 
 
 class StructuredModel(WorldModel):
@@ -79,6 +96,9 @@ class StructuredPlanner(LookaheadPlanner):
         self.nav.model = self.model
         self.nav.horizon = 40
         self.looks: Counter[int] = Counter()
+        self.lost: dict[int, Lost] = {}  # goal index -> the item that vanished from its place
+        self.hunt: tuple[str, Any] | None = None  # what ``seek`` looks for anywhere
+        self.widened: set[int] = set()  # goals whose backup places were all looked at
 
     # ------------------------------------------------------------------ descriptions
     def room_of(self, t: Thing) -> int | None:
@@ -107,10 +127,29 @@ class StructuredPlanner(LookaheadPlanner):
             out.append((unknown, on, math.dist(t.position, self.pose[:2]), t))
         return [t for *_k, t in sorted(out, key=lambda x: x[:3])]
 
+    def relocated(self, ref: dict[str, Any], lost: Lost) -> list[Thing]:
+        """A vanished item: the very thing when it had been seen (instance ids persist; the
+        description's room or what it rested on no longer hold), else a thing that fits the
+        category and colour, found since, outside the rooms it was missing from."""
+        m = self.model
+        if lost.item is not None:
+            t = m.things.get(lost.item)
+            return [] if t is None or t.gone else [t]
+        return sorted((t for t in m.of_kind("object", "tool") if not t.gone
+                       and t.id not in lost.known and t.category == ref["category"]
+                       and (not ref.get("colour") or t.colour == ref["colour"])
+                       and self.room_of(t) not in lost.rooms),
+                      key=lambda t: math.dist(t.position, self.pose[:2]))
+
+    def goal_index(self, goal: dict[str, Any]) -> int:
+        return next((k for k, g in enumerate(self.goals) if g is goal), -1)
+
     def resolve(self, goal: dict[str, Any]) -> tuple[Thing | None, Thing | None]:
         m = self.model
         ref = goal["item"] if goal["kind"] == "place" else goal["tool"]
-        items = self.pick(ref, m.of_kind("object", "tool"))
+        lost = self.lost.get(self.goal_index(goal))
+        items = (self.relocated(ref, lost) if lost is not None
+                 else self.pick(ref, m.of_kind("object", "tool")))
         if goal["kind"] == "use" and not items and (
                 "tool_substitution" in self.reported or self.exhausted):
             items = sorted((t for t in m.of_kind("tool") if not t.gone
@@ -140,7 +179,8 @@ class StructuredPlanner(LookaheadPlanner):
         bearing = math.remainder(math.atan2(dy, dx) - self.pose[2], math.tau)
         base = self.model.on_what(item)
         close = math.hypot(dx, dy) <= 2.2 and abs(bearing) < 0.8 and (
-            base is None or base.id in self.seen_now)  # its place in clear view
+            base is None or base.id in self.seen_now) and self.model._doorway_between(
+            self.pose[:2], item.position, exclude=-1) is None  # its place in clear view
         if close and item.id not in self.seen_now:
             self.looks[item.id] += 1
         elif item.id in self.seen_now:
@@ -148,10 +188,7 @@ class StructuredPlanner(LookaheadPlanner):
         if self.looks[item.id] >= GONE_LOOKS:
             self.looks[item.id] = 0
             item.gone = True
-            kind = "tool_substitution" if item.kind == "tool" else "object_relocation"
-            self.report(kind, ts.stage, item=item.id)
-            self.search = self.search_targets(backup_first=kind == "object_relocation")
-            self.searched = True
+            self.vanish(item, ts.stage)
             return self.seek(ts)
         if close and item.id not in self.seen_now:  # look again, squarely
             turn = face(self.pose, item.position, 0.2)
@@ -160,6 +197,105 @@ class StructuredPlanner(LookaheadPlanner):
             return {"primitive": "move", "move": [0.0, 0.3 if self.looks[item.id] % 2 else
                                                   -0.3]}
         return self.act_on(item, "pick")
+
+    # ------------------------------------------------------------------ replanning
+    def vanish(self, item: Thing | None, stage: str) -> None:
+        """The current goal's item is not where the model (or the instruction) put it: for
+        a place goal a relocation (search the backup places, nearest and likeliest first,
+        the old place marked searched-empty), for a tool a substitution (another tool of
+        the same use, known or searched for)."""
+        k = self.done_goals
+        goal = self.goals[k]
+        if goal["kind"] == "use":
+            self.report("tool_substitution", stage, item=None if item is None else item.id)
+            return
+        m = self.model
+        if item is not None:
+            rooms = {m.room_of(item)} - {None}
+        else:  # never seen: missing from the room the instruction names, if any
+            named = goal["item"].get("room")
+            rooms = {r for r, t in m.rooms.items() if named is not None and t == named}
+        self.lost[k] = Lost(None if item is None else item.id, rooms, set(m.things))
+        self.report("object_relocation", stage, item=None if item is None else item.id)
+        # A look at a backup place before the item vanished says nothing about it now.
+        self.inspected -= {t.id for t in m.of_kind("furniture", "container") if self.backup(t)}
+        self.seek_target = None
+
+    def backup(self, t: Thing) -> bool:
+        """Whether a relocated item can be on or in ``t`` (the storage room, or a shelf or
+        cabinet elsewhere; never the room it vanished from)."""
+        lost = self.lost.get(self.done_goals)
+        room = self.model.room_of(t)
+        if lost is not None and room in lost.rooms:
+            return False
+        return self.model.rooms.get(room) == "storage" or t.category in BACKUP_FURNITURE
+
+    def wanted(self) -> tuple[str, str | None] | None:
+        """As the look-ahead planner; a vanished item or a substituted tool is wanted
+        anywhere (``self.hunt`` says which)."""
+        self.hunt = None
+        k = self.done_goals
+        if k < len(self.goals):
+            goal = self.goals[k]
+            item, _dest = self.resolve(goal)
+            if item is None and k in self.lost:
+                self.hunt = ("lost", k)
+                return goal["item"]["category"], None
+            if item is None and goal["kind"] == "use" and "tool_substitution" in self.reported:
+                self.hunt = ("tool", goal["affordance"])
+                return goal["tool"]["category"], None
+        return super().wanted()
+
+    def place_value(self, t: Thing, category: str, room: str | None) -> float:
+        hunt = self.hunt
+        if hunt is not None and hunt[0] == "lost":
+            if not self.backup(t):
+                return 0.0
+            if t.kind == "container" and t.state == "closed":
+                return 1.0
+            return SEEN_ELSEWHERE if t.id in self.inspected else 1.0
+        if hunt is not None and hunt[0] == "tool":
+            return max(super(StructuredPlanner, self).place_value(t, c, None)
+                       for c, a in AFFORDANCES.items() if a == hunt[1])
+        return super().place_value(t, category, room)
+
+    def unexplored_value(self, category: str, room: str | None) -> float:
+        hunt = self.hunt
+        if hunt is not None and hunt[0] == "lost":  # the storage room, or a shelf or cabinet
+            return 0.5 if "storage" in self.model.rooms.values() else 1.0
+        if hunt is not None and hunt[0] == "tool":
+            return max(super(StructuredPlanner, self).unexplored_value(c, None)
+                       for c, a in AFFORDANCES.items() if a == hunt[1])
+        return super().unexplored_value(category, room)
+
+    def execute(self, ts: TimeStep) -> dict[str, Any] | None:
+        """As the map planner; when the goal's item cannot be found where the model and the
+        instruction put it, that is the exception's sign: replan as for a vanished item
+        (once), instead of giving up; when no backup place has it either, look again where
+        it was (the looks that found it gone may have missed it)."""
+        k = self.done_goals
+        if (k < len(self.goals) and self.exhausted and self.goals[k]["kind"] == "use"
+                and not self.pick(self.goals[k]["tool"], self.model.of_kind("tool"))):
+            self.vanish(None, ts.stage)  # the named tool is nowhere: a substitute, say so
+        act = super().execute(ts)
+        if (act is not None or self.done_goals >= len(self.goals)
+                or (ts.steps_left is not None and ts.steps_left <= 1)):
+            return act
+        k = self.done_goals
+        goal = self.goals[k]
+        item, _dest = self.resolve(goal)
+        if item is None and goal["kind"] == "place" and k not in self.widened:
+            if k not in self.lost:
+                self.vanish(None, ts.stage)
+            else:  # no backup place has it: it may never have left (a missed detection)
+                rooms = self.lost.pop(k).rooms
+                self.widened.add(k)
+                self.inspected -= {t.id for t in self.model.of_kind("furniture", "container")
+                                   if self.model.room_of(t) in rooms}
+                self.seek_target = None
+            self.exhausted = False
+            return super().execute(ts)
+        return act
 
     # ------------------------------------------------------------------ queries
     def answers(self) -> dict[str, Any]:

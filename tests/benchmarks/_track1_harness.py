@@ -60,6 +60,8 @@ class Played:
     latencies_ms: list[float] = field(default_factory=list)
     error: str = ""
     exception: str | None = None
+    snapshots: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """The parsed files of each stage-end snapshot (stage name → file name → model)."""
 
 
 class DirectEnv:
@@ -252,7 +254,7 @@ def run_agent(make_agent: Callable[[Track1Episode], Any], split: str, seed: int,
     exc = outcome.get("exception") or {}
     return Played(split=split, seed=seed, card=card, status=status, end_reason=env.end_reason,
                   steps=env.steps, invalid_actions=env.invalid, latencies_ms=env.latencies,
-                  error=error, exception=exc.get("type"))
+                  error=error, exception=exc.get("type"), snapshots=snaps)
 
 
 def median(values: list[float]) -> float:

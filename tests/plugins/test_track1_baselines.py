@@ -17,6 +17,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import pytest
 
@@ -129,3 +130,29 @@ def test_the_in_process_harness_scores_as_the_worker_does(runs: Path) -> None:
     assert local.invalid_actions == real.stats.invalid_actions
     assert local.card.total == pytest.approx(real.score.total, abs=1e-9)
     assert local.card.components == pytest.approx(real.score.components, abs=1e-9)
+
+
+def test_memoryfree_reports_the_doorways_it_passes_and_only_real_ones() -> None:
+    """The memory-free policy writes the doorways it passes between two signed rooms into its
+    report (write-only: it never reads it back). Every connection it reports is an edge of
+    the true room graph, and exploration finds some."""
+    sys.path.insert(0, str(ROOT / "tests" / "benchmarks"))
+    from _track1_harness import run_agent
+
+    agent = _load(EXAMPLES / "track1_memoryfree")
+    episodes: list[Any] = []
+
+    def make(episode: object) -> object:
+        episodes.append(episode)
+        return agent.Agent()
+
+    reported = 0
+    for seed in range(3):
+        played = run_agent(make, "standard", seed, render=False)
+        assert played.error == "", played.error
+        model = played.snapshots["exploration"]["world_model.json"]
+        edges = {frozenset(c.rooms) for c in episodes[-1].gt_exploration.connections}
+        for c in model.connections:
+            assert frozenset(int(r) for r in c.rooms) in edges, (seed, c)
+        reported += len(model.connections)
+    assert reported > 0

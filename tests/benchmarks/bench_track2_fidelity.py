@@ -20,15 +20,16 @@ family ``i mod 5``: ``K`` instances of each family per split), exactly as a camp
 Targets (issue 12): Avg within ±10 of the paper (imitation 28.7, waypoint 32.5, demo parser
 36.6, task model 50.8) and in the same order; success well below 100 %; the task-model
 baseline highest on task-model %; attempts between 1.5 and 3; oracle >= 95 and nothing <= 5
-on every split. Check them on several disjoint seed ranges: the organizers' seeds are
-hidden, and with 4 instances per family per split one range's Avg moves by 10-15 points from
-the next (the README pools three ranges of 8 per family). Time on the project's 2-core
-machine: well under 1 s per in-process episode and 2-4 s per baseline episode; the default
-(8 per family, 2 splits, every agent: 480 episodes, 2 jobs) took 17-19 minutes while other
-jobs kept the load average at 9-12; ``--per-family 4 --inproc`` (240 episodes) takes 4-6
-minutes at a load average of 4-8. The episodes' folders (logs, files, MCAP) go to a
-temporary folder removed at the end; ``--keep-runs`` keeps it and prints where. Not
-collected by pytest (the file is ``bench_*.py``).
+on every split; the benchmark prints each as ``ok`` or ``FAIL`` after the tables (same seed,
+same episode is covered by the tests). Check them on several disjoint seed ranges: the
+organizers' seeds are hidden, and with 4 instances per family per split one range's Avg
+moves by 10-15 points from the next (the README pools three ranges of 8 per family). Time on
+the project's 2-core machine: well under 1 s per in-process episode and 2-4 s per baseline
+episode; the default (8 per family, 2 splits, every agent: 480 episodes, 2 jobs) took 17-19
+minutes while other jobs kept the load average at 9-12; ``--per-family 4 --inproc`` (240
+episodes) takes 4-6 minutes at a load average of 4-8. The episodes' folders (logs, files,
+MCAP) go to a temporary folder removed at the end; ``--keep-runs`` keeps it and prints
+where. Not collected by pytest (the file is ``bench_*.py``).
 """
 
 from __future__ import annotations
@@ -175,6 +176,38 @@ def table(rows: dict[str, dict[str, float | None]], title: str) -> list[str]:
     return out
 
 
+def checks(by_split: dict[str, dict[str, dict[str, float | None]]]) -> list[tuple[str, bool]]:
+    """Issue 12's targets on this sample: (what, holds). ``by_split``: split (and "all") →
+    agent → the summary row of the table."""
+    rows = by_split["all"]
+    out: list[tuple[str, bool]] = []
+    baselines = [a for a in PAPER if a in rows and rows[a].get("final") is not None]
+    for a in baselines:
+        got, want = rows[a]["final"] or 0.0, PAPER[a][5]
+        out.append((f"{a}: Avg {got:.1f} within 10 of {want}", abs(got - want) <= 10))
+    if len(baselines) > 1:
+        avgs = [rows[a]["final"] or 0.0 for a in baselines]
+        out.append((f"order: {' < '.join(baselines)}",
+                    all(x < y for x, y in zip(avgs, avgs[1:], strict=False))))
+        top = max(rows[a]["task_success"] or 0.0 for a in baselines)
+        out.append((f"success below 100 % for every baseline (highest {top:.1f})", top < 100))
+        if "taskmodel" in baselines:
+            tm = {a: rows[a]["task_model"] or 0.0 for a in baselines}
+            out.append((f"task model highest on task model % ({tm['taskmodel']:.1f})",
+                        tm["taskmodel"] >= max(tm.values())))
+        att = [rows[a]["attempts"] or 0.0 for a in baselines]
+        out.append((f"attempts between 1.5 and 3 ({min(att):.1f}-{max(att):.1f})",
+                    all(1.5 <= x <= 3 for x in att)))
+    splits = [s for s in by_split if s != "all"]
+    for agent, test, word in (("oracle", lambda v: v >= 95, ">= 95"),
+                              ("nothing", lambda v: v <= 5, "<= 5")):
+        if agent in rows:
+            vals = [by_split[s][agent]["final"] or 0.0 for s in splits]
+            shown = ", ".join(f"{v:.1f}" for v in vals)
+            out.append((f"{agent} {word} on every split ({shown})", all(map(test, vals))))
+    return out
+
+
 def summarize(results: Sequence[dict[str, Any]]) -> dict[str, float | None]:
     from plugins import load_track
     from schemas import EpisodeResult
@@ -227,12 +260,17 @@ def main() -> int:
             shutil.rmtree(runs, ignore_errors=True)
     failed = [(t[0], t[1], t[2], r.get("error") or r["status"]) for t, r in results
               if r["status"] != "completed" or r.get("error")]
+    by_split: dict[str, dict[str, dict[str, float | None]]] = {}
     for split in [*splits, "all"]:
         rows = {a: summarize([r for t, r in results if t[0] == a
                               and (split == "all" or t[1] == split)]) for a in agents}
+        by_split[split] = rows
         print()
         print("\n".join(table(rows, f"Table VII, split {split} ({args.per_family} per family"
                               f"{' per split' if split == 'all' else ''})")))
+    print("\nCalibration checks:")
+    for what, ok in checks(by_split):
+        print(f"  {'ok  ' if ok else 'FAIL'} {what}")
     if failed:
         print(f"\n{len(failed)} episodes did not complete: {failed[:10]}")
     if args.json is not None:

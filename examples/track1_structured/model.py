@@ -83,7 +83,7 @@ class WorldModel:
                 self.moved.append(t)
             t.state, t.position, t.last_seen, t.gone = d["state"], pos, step, False
             t.seen_from = (x, y)
-            through = self._doorway_between((x, y), pos, exclude=d["id"])
+            through = self.doorway_between((x, y), pos, exclude=d["id"])
             if through is None:
                 t.rooms[room] += 1
                 t.latest = room
@@ -102,7 +102,7 @@ class WorldModel:
         self.last_room = room
         return seen
 
-    def _doorway_between(self, a: tuple[float, float], b: tuple[float, float],
+    def doorway_between(self, a: tuple[float, float], b: tuple[float, float],
                          exclude: int) -> int | None:
         """The door whose doorway the segment a→b passes through, if any."""
         ax, ay = a

@@ -179,7 +179,7 @@ class StructuredPlanner(LookaheadPlanner):
         bearing = math.remainder(math.atan2(dy, dx) - self.pose[2], math.tau)
         base = self.model.on_what(item)
         close = math.hypot(dx, dy) <= 2.2 and abs(bearing) < 0.8 and (
-            base is None or base.id in self.seen_now) and self.model._doorway_between(
+            base is None or base.id in self.seen_now) and self.model.doorway_between(
             self.pose[:2], item.position, exclude=-1) is None  # its place in clear view
         if close and item.id not in self.seen_now:
             self.looks[item.id] += 1

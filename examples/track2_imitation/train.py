@@ -93,8 +93,8 @@ def align(demo: dict, run: dict) -> list[tuple[int, int, str]]:
             continue
         for j, k in enumerate(ks):
             f = j / max(1, len(ks) - 1)
-            j = d[s][round(f * (len(d[s]) - 1))]
-            pairs.append((k, j, demo["phases"][j]))
+            m = d[s][round(f * (len(d[s]) - 1))]  # the demonstration's step
+            pairs.append((k, m, demo["phases"][m]))
     return pairs
 
 

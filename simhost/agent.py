@@ -71,6 +71,7 @@ __all__ = [
 DEFAULT_TIMEOUT_S = 60.0
 _MATCH_WAIT_S = 5.0  # at most this long for the host's subscriber before the first hello
 _HELLO_RESEND_S = 0.5  # then hello is resent at this interval until a reply comes
+_JOIN_S = 2.0  # close() waits this long for its watcher threads to end
 _END_REASONS = {r.value: r for r in EndReason}
 
 
@@ -174,11 +175,13 @@ class RemoteEnv:
         self._host_watch = self._session.liveliness().declare_subscriber(
             self._keys.host_alive, zenoh.handlers.FifoChannel(16), history=True
         )
-        threading.Thread(target=self._watch_host, daemon=True,
-                         name=f"eagc-host-{episode}").start()
+        self._watchers = [threading.Thread(target=self._watch_host, daemon=True,
+                                           name=f"eagc-host-{episode}")]
         if timeout_s is not None:
-            threading.Thread(target=self._watch_deadlines, daemon=True,
-                             name=f"eagc-deadline-{episode}").start()
+            self._watchers.append(threading.Thread(target=self._watch_deadlines, daemon=True,
+                                                   name=f"eagc-deadline-{episode}"))
+        for watcher in self._watchers:
+            watcher.start()
         atexit.register(self.close)
 
     # ------------------------------------------------------------------ public calls
@@ -261,6 +264,14 @@ class RemoteEnv:
             except Exception:  # noqa: BLE001 - closing must not raise
                 pass
         self._session.close()
+        # The host watcher returns once its channel closed with the subscriber. Waited for:
+        # a daemon thread still inside zenoh's recv when the interpreter finalizes is ended
+        # by pthread_exit, whose unwinding through zenoh's Rust frames aborts the process
+        # ("FATAL: exception not rethrown", exit -6) after the episode went well.
+        me = threading.current_thread()
+        for watcher in self._watchers:
+            if watcher is not me and watcher.is_alive():
+                watcher.join(timeout=_JOIN_S)
 
     def __enter__(self) -> RemoteEnv:
         return self

@@ -73,6 +73,30 @@ def test_an_error_reply_to_a_resent_hello_does_not_put_the_client_out_of_step(ho
     assert outcome.steps == 2
 
 
+def test_close_leaves_no_watcher_thread_inside_zenoh(host_episode, monkeypatch):
+    """A watcher thread still blocked in zenoh's recv when the interpreter finalizes is ended
+    by pthread_exit, whose unwinding through Rust frames aborts the agent's process ("FATAL:
+    exception not rethrown", exit -6) after a good episode: close() waits for its watchers.
+    Here the host watcher is slow to leave, as it is on a loaded machine."""
+    from simhost.agent import RemoteEnv
+
+    watch = RemoteEnv._watch_host
+
+    def slow_to_leave(self: RemoteEnv) -> None:
+        watch(self)
+        time.sleep(0.5)
+
+    monkeypatch.setattr(RemoteEnv, "_watch_host", slow_to_leave)
+    env = RemoteEnv(host_episode.endpoint, host_episode.episode, timeout_s=10.0)
+    env.hello(agent="close/1")
+    env.reset()
+    names = {f"eagc-{what}-{host_episode.episode}" for what in ("host", "deadline")}
+    mine = [t for t in threading.enumerate() if t.name in names]
+    assert len(mine) == 2
+    env.close()
+    assert [t.name for t in mine if t.is_alive()] == []
+
+
 def test_the_default_reply_timeout_is_documented_and_finite():
     import inspect
 

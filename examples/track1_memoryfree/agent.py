@@ -57,6 +57,8 @@ ROAMS = 2
 """Such drives per room."""
 BACK = 25
 """Steps in a room before it goes back out by the doorway it came in by."""
+WALL_STEPS = 12
+"""Steps along the walls looking for a way out between two looks all round for one."""
 RECENT = 3
 SURE = 0.8
 """How sure it must be of a room's type recognised from its furniture."""
@@ -131,6 +133,9 @@ class Agent:
         self.revisit = revisit
         self.in_room = 0
         self.scan = 0
+        self.door_scan = 0
+        """Steps spent looking for a way out with none in view (a look all round, then
+        ``WALL_STEPS`` along the walls, and again)."""
         self.inspected: set[int] = set()
         """Furniture of this room it has looked at from close up (ids, reset per room)."""
         self.door: int | None = None
@@ -538,8 +543,12 @@ class Agent:
             if door["dist"] < 1.2:
                 self.passing = 3
             return self.toward(obs, door["bearing"], door["dist"] + 1.0)
-        if self.scan < SCAN:
-            self.scan += 1
+        # No way out in view: look all round for one, then along the walls, and look
+        # round again after a while (the searching turns looked for furniture, and a
+        # 120-degree view along a wall misses a doorway behind it).
+        phase = self.door_scan % (SCAN + WALL_STEPS)
+        self.door_scan += 1
+        if phase < SCAN:
             return {"primitive": "move", "move": [0.0, 1.0]}
         return self.follow_wall(obs, dets)
 

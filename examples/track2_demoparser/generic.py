@@ -8,15 +8,18 @@ took relative to the part it acted on — and the instance's own observations (t
 
 - ``carry`` (a part lifted and let go elsewhere): grasp it as the demonstration did, carry it
   above where it ended relative to its reference row, servo the held part onto that pose
-  (x, y, yaw), lower until the contact stops it, let go, look; while the part rests too far
-  from the goal, grasp it again and retry with the descent moved around the first point (a
-  spiral: what failed was the alignment).
+  (x, y, yaw), lower until the contact stops it, let go, look. ``checked`` adds the task
+  model's success condition (not the demo parser's): a descent stopped above the goal is
+  searched around, and while the part rests too far from the goal it is grasped again and
+  the carry retried with the descent moved around the first point (a spiral: what failed
+  was the alignment).
 - ``drive`` (a mechanism moved with the hand, never lifted): the part's motion is a planar
   rigid motion (a slide or a turn about a pivot) from where it starts to its goal — the
   demonstration's end pose relative to the reference row when the annotation stated a
   value (a state: opened to a fraction), the demonstration's displacement of the part from
   its own start otherwise (a motion: the same turn). The hand follows that motion at the
-  grasp, closed on the observed progress, and regrasps while the part is short of the goal.
+  grasp, closed on the observed progress; with ``tries`` > 1 (a success condition checked:
+  the task model's, not the demo parser's) it regrasps while the part is short of the goal.
 - ``tool`` (a part lifted and held to the end): grasp it, follow its tip's path relative to
   the part it acted on, then push on along the path's last direction while the part the
   tool moved is short of where the demonstration left it relative to its reference.
@@ -121,11 +124,13 @@ def _fresh(v: View, i: int, steps: int = 12) -> Plan:
 
 
 # -- carry ------------------------------------------------------------------------------------
-def carry(v: View, ph: Phase, tries: int = 3) -> Plan:
+def carry(v: View, ph: Phase, checked: bool) -> Plan:
+    """One carry; ``checked``: its success condition (the part where the demonstration left
+    it, down on its support) is checked, a rim searched and the carry redone (up to 3)."""
     assert ph.ref is not None and ph.goal is not None
     held, ref = ph.held, ph.ref
     offsets = [np.zeros(2), *spiral(0.002, 2)]
-    for k in range(tries):
+    for k in range(3 if checked else 1):
         goal = compose(pose(v, ref), ph.goal)
         part = pose(v, held)
         turn = wrap(near_period(goal[3] - part[3], TURN_PERIOD))
@@ -150,7 +155,7 @@ def carry(v: View, ph: Phase, tries: int = 3) -> Plan:
         drop = v.pos(held)[2] - compose(pose(v, ref), ph.goal)[2]
         yield from _lower(v, held, drop + 0.02)
         high = v.pos(held)[2] - compose(pose(v, ref), ph.goal)[2]
-        if high > 0.004:  # stopped above the goal: on a rim; search around where it is
+        if checked and high > 0.004:  # stopped above the goal: on a rim; search around
             centre, base = v.ee()[:2].copy(), v.ee()[2]
             for off in spiral(0.0025, 2):
                 yield from move(v, [*(centre + off), base + 0.006], v.ee()[3], 0.0,
@@ -206,7 +211,7 @@ class Motion:
         return float((turned - self.start[3]) / self.dyaw)
 
 
-def drive(v: View, ph: Phase, state_goal: bool, tries: int = 3, stall: float = 0.0) -> Any:
+def drive(v: View, ph: Phase, state_goal: bool, tries: int, stall: float = 0.0) -> Any:
     """Follow the part's motion at the grasp (see the module docstring); with ``stall`` > 0,
     give up when the part has not followed by that fraction after 10 steps. Returns how far
     the part and the hand went along the motion (fractions of it) on the last try."""
@@ -312,9 +317,9 @@ def execute(v: View, dp: DemoParse, state_goal: bool) -> Iterator[np.ndarray]:
     yield from look(v, 8)
     for ph in dp.phases:
         if ph.kind == "carry":
-            yield from carry(v, ph)
+            yield from carry(v, ph, checked=False)
         elif ph.kind == "drive":
-            yield from drive(v, ph, state_goal)
+            yield from drive(v, ph, state_goal, tries=1)
         else:
             yield from tool(v, ph, dp)
 

@@ -30,7 +30,7 @@ def insertion(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
     yield from look(v, 8)
     for ph in dp.phases:
         if ph.kind == "carry":
-            yield from carry(v, ph)
+            yield from carry(v, ph, checked=True)
 
 
 assembly = insertion

@@ -268,10 +268,8 @@ class RemoteEnv:
         # a daemon thread still inside zenoh's recv when the interpreter finalizes is ended
         # by pthread_exit, whose unwinding through zenoh's Rust frames aborts the process
         # ("FATAL: exception not rethrown", exit -6) after the episode went well.
-        me = threading.current_thread()
-        for watcher in self._watchers:
-            if watcher is not me and watcher.is_alive():
-                watcher.join(timeout=_JOIN_S)
+        for watcher in self._watchers:  # neither ever calls close()
+            watcher.join(timeout=_JOIN_S)
 
     def __enter__(self) -> RemoteEnv:
         return self

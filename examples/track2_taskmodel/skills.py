@@ -66,9 +66,10 @@ def _mirror(rel: np.ndarray) -> np.ndarray:
 
 def opening(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
     """The mechanism's motion is the demonstration's (a slide, or a turn about a pivot, in the
-    housing's frame); its ends are measured by driving to each stop (kept for later
-    attempts); the goal is the stated fraction between them. A mechanism that does not move
-    the predicted way is taken to be mirrored."""
+    housing's frame; +s is the demonstration's way, toward the goal); its ends are measured
+    by driving to each stop, back then forward (kept for later attempts); the goal is the
+    stated fraction between them. A mechanism that does not move forward is taken to be
+    mirrored; a slide that went farther back than forward runs the other way round."""
     ph = next((p for p in dp.phases if p.kind == "drive"), None)
     yield from look(v, 10)
     if ph is None or ph.ref is None or ph.goal is None or ph.start_rel is None:
@@ -76,7 +77,6 @@ def opening(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
     mover, housing = ph.held, ph.ref
     opens = model.get("mode", "open") == "open"
     frac = float(model.get("fraction", 0.8 if opens else 0.2))
-    sign = 1.0 if opens else -1.0  # +s moves the demonstration's way; opening is sign * s
 
     def setup() -> tuple[Motion, np.ndarray]:
         mir = bool(model.get("mirrored", False))
@@ -91,7 +91,8 @@ def opening(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
     def drive_to(motion: Motion, grasp: np.ndarray, k_yaw: float, s_goal: float,
                  probe: bool) -> Any:
         """Drive towards ``s_goal``; returns (s reached, moved at all)."""
-        step = 0.01 / max(motion.length, 0.01)
+        unit = 0.01 / max(motion.length, 0.01)  # 1 cm (or 0.1 rad) of the motion
+        lead = (2.0 if probe else 1.0) * unit  # a probe leads the part by more: quicker
         s0 = best = s_now(motion)
         stuck = 0
         for _ in range(160):
@@ -99,12 +100,12 @@ def opening(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
             if not probe and abs(s_goal - s) * motion.length < 0.0015:
                 break
             ahead = (s - best) * np.sign(s_goal - s0) if s_goal != s0 else 0.0
-            stuck = stuck + 1 if ahead < 0.1 * step else 0
+            stuck = stuck + 1 if ahead < 0.1 * unit else 0
             if ahead > 0:
                 best = s
-            if stuck >= 8:
+            if stuck >= (5 if probe else 8):
                 break
-            nxt = motion.at(s + float(np.clip(s_goal - s, -step, step)), extrapolate=True)
+            nxt = motion.at(s + float(np.clip(s_goal - s, -lead, lead)), extrapolate=True)
             hand = compose(compose(pose(v, housing), nxt), grasp)
             yield from move(v, hand[:3], float(hand[3] + k_yaw), 0.0, max_steps=1)
         s = s_now(motion)
@@ -120,14 +121,25 @@ def opening(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
         open_w = max(ph.open_width, 0.03)
         yield from approach(v, hand[:3], yaw0, open_w, ph.held_width)
         if "ends" not in model:
+            # Measure the ends: first the one the demonstration started near (against its
+            # motion: a short way, the instance starts near there too), then the other, so
+            # that the drive ends at the stop nearer the goal.
             far = 3.0 / max(motion.length, 0.01)  # past any stop: 3 m (or 30 rad) away
-            s_open, moved = yield from drive_to(motion, grasp, k_yaw, s0 + sign * far, True)
-            if not moved and not model.get("mirror_tried"):  # predicted to move; it does not
+            s_back, _ = yield from drive_to(motion, grasp, k_yaw, s0 - far, True)
+            s_fwd, moved = yield from drive_to(motion, grasp, k_yaw, s_back + far, True)
+            # Predicted: a short way back, the whole range forward. A part that does not
+            # move forward, or went farther back than forward, moves the other way round.
+            flipped = not moved or abs(s0 - s_back) > 0.5 * abs(s_fwd - s_back)
+            if flipped and moved and motion.pivot is None:
+                # a slide along the same line the other way round: the ends as measured
+                s_back, s_fwd = s_fwd, s_back
+                model["reversed"] = True
+            elif flipped and not model.get("mirror_tried"):
                 model["mirror_tried"] = True
                 model["mirrored"] = not model.get("mirrored", False)
                 yield from release(v, open_w, 0.05)
                 continue
-            s_closed, _ = yield from drive_to(motion, grasp, k_yaw, s0 - sign * far, True)
+            s_open, s_closed = (s_fwd, s_back) if opens else (s_back, s_fwd)
             model["ends"] = (s_closed, s_open)
             unit = abs(motion.dyaw) if motion.pivot is not None else float(
                 np.linalg.norm(motion.goal[:2] - motion.start[:2]))

@@ -91,8 +91,8 @@ def opening(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
     def drive_to(motion: Motion, grasp: np.ndarray, k_yaw: float, s_goal: float,
                  probe: bool) -> Any:
         """Drive towards ``s_goal``; returns (s reached, moved at all)."""
-        unit = 0.01 / max(motion.length, 0.01)  # 1 cm (or 0.1 rad) of the motion
-        lead = (2.0 if probe else 1.0) * unit  # a probe leads the part by more: quicker
+        cm = 0.01 / max(motion.length, 0.01)  # 1 cm (or 0.1 rad) of the motion, in s
+        lead = (2.0 if probe else 1.0) * cm  # a probe leads the part by more: quicker
         s0 = best = s_now(motion)
         stuck = 0
         for _ in range(160):
@@ -100,7 +100,7 @@ def opening(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
             if not probe and abs(s_goal - s) * motion.length < 0.0015:
                 break
             ahead = (s - best) * np.sign(s_goal - s0) if s_goal != s0 else 0.0
-            stuck = stuck + 1 if ahead < 0.1 * unit else 0
+            stuck = stuck + 1 if ahead < 0.1 * cm else 0
             if ahead > 0:
                 best = s
             if stuck >= (5 if probe else 8):
@@ -133,7 +133,6 @@ def opening(v: View, model: dict[str, Any], dp: DemoParse) -> Plan:
             if flipped and moved and motion.pivot is None:
                 # a slide along the same line the other way round: the ends as measured
                 s_back, s_fwd = s_fwd, s_back
-                model["reversed"] = True
             elif flipped and not model.get("mirror_tried"):
                 model["mirror_tried"] = True
                 model["mirrored"] = not model.get("mirrored", False)

@@ -30,6 +30,7 @@ from collections import deque
 from typing import Any
 
 import numpy as np
+from answers import Answers
 from doorways import Doorways
 from parsing import AFFORDANCES, parse
 from priors import Priors
@@ -48,6 +49,8 @@ ROOM_PATIENCE = 40
 likelihood for another type, at least ``MIN_PATIENCE``; a third of that in a room it came
 back to)."""
 MIN_PATIENCE = 10
+EXPLORE_PATIENCE = 15
+"""Steps along the walls of a room while exploring before it leaves by a doorway in view."""
 SCAN = 6
 """Turns in place (45 degrees each) to look for something before moving on (with a
 120-degree view, six turns see all round)."""
@@ -84,6 +87,7 @@ class Agent:
         self.rng = np.random.default_rng(seed)
         self.priors = Priors()
         self.doorways = Doorways()
+        self.answers = Answers(self.priors)
         self.files = OutputFiles()
         self.step = 0
         self.exec_steps = 0
@@ -241,10 +245,11 @@ class Agent:
         this passes close to every surface), and out through a doorway in sight once this
         room has been searched for a while or is not the room the goal names."""
         doors = [d for d in dets if d["kind"] == "door" and d["id"] not in self.locked]
-        leave = self.in_room > ROOM_PATIENCE or (self.goals and self.current < len(
+        leave = self.in_room > EXPLORE_PATIENCE or (self.goals and self.current < len(
             self.goals) and self.leaving(obs))
         if leave and doors and not int(obs["collided"][0]):
-            door = min(doors, key=lambda d: d["dist"])
+            # the nearest doorway, not back the way it came while another is in view
+            door = min(doors, key=lambda d: d["dist"] + (9.0 if d["id"] == self.entry else 0.0))
             if door["state"] == "closed":
                 if door["dist"] < 1.45 and abs(door["bearing"]) < 0.6:
                     return {"primitive": "open", "target": door["id"]}
@@ -421,8 +426,8 @@ class Agent:
         if thing is not None:
             self.lock = (key, thing["id"], primitive, extra)
         elif self.lock is not None and self.lock[0] == key:
-            again = [d for d in dets if d["id"] == self.lock[1]
-                     and d["id"] not in self.refused]
+            again = [d for d in dets if d["id"] == self.lock[1] and d["id"] not in
+                     (*self.refused, *self.unusable, *self.locked)]
             if again:
                 thing, primitive, extra = again[0], self.lock[2], self.lock[3]
             else:
@@ -645,8 +650,11 @@ class Agent:
                 queries = next((m.data["queries"] for m in ts.messages if m.type == "queries"),
                                [])
                 visible = {d["id"]: d for d in dets}
-                answers = {q["id"]: visible[q["door"]]["state"] for q in queries
-                           if q["kind"] == "door_state" and q.get("door") in visible}
+                rooms = self.answers.named_rooms(queries)
+                if self.room >= 0 and self.room_type:
+                    rooms[self.room] = self.room_type
+                answers = {q["id"]: a for q in queries
+                           if (a := self.answers.answer(q, rooms, visible)) is not None}
                 if answers:
                     ts = env.answer(answers)
                 self.record("plan", ts.stage, goals=self.goals)

@@ -12,7 +12,11 @@ counts it fits, with add-one smoothing:
 - ``neighbour``: P(type of the room behind a doorway | type of this room);
 - ``furniture``: P(a piece of this furniture category stands in a room | its type), the
   likelihood of what is seen through a doorway;
-- ``degree``: the mean number of doorways of a room of each type (a hallway leads on).
+- ``degree``: the mean number of doorways of a room of each type (a hallway leads on);
+- for the queries it answers without a map (``answers.py``): ``door_open``, P(a door is
+  open | the types of its two rooms); ``container_closed``, P(a container of each category
+  is closed); ``count_answer``, per item category, the count that scores best on average
+  (1 - relative error).
 
 The policy combines them (naive Bayes) into what a doorway in view leads to, given the room
 it is in and the furniture it sees beyond the doorway. Needs the eagc simulator
@@ -30,7 +34,18 @@ import numpy as np
 ROOM_TYPES = ("kitchen", "living_room", "bedroom", "bathroom", "hallway", "storage")
 FURNITURE = ("table", "counter", "shelf", "bed", "desk", "sofa", "cabinet", "drawer", "fridge",
              "bin")
+CONTAINERS = ("cabinet", "drawer", "fridge", "bin")
+ITEMS = ("mug", "apple", "book", "plate", "towel", "bottle", "bowl", "bread", "plant")
 FIRST_SEED = 2 * 10**7
+
+
+def best_count(counts: list[int]) -> int:
+    """The answer to "how many?" with the best mean score (1 - relative error, floor 0)."""
+    if not counts:
+        return 1
+    t = np.asarray(counts, float)
+    scores = [float(np.maximum(0.0, 1.0 - np.abs(n - t) / t).mean()) for n in range(1, 13)]
+    return 1 + int(np.argmax(scores))
 
 
 def learn(houses: int) -> dict[str, np.ndarray]:
@@ -43,6 +58,10 @@ def learn(houses: int) -> dict[str, np.ndarray]:
     present = np.ones((r, f))
     rooms_of = np.full(r, 2.0)  # add-one smoothing of a Bernoulli: one room with, one without
     degree = np.zeros((r, 2))
+    door_open = np.ones((r, r, 2))  # add-one smoothing: (open, all) counts start at (1, 2)
+    door_open[..., 1] = 2.0
+    closed = np.tile([1.0, 2.0], (len(CONTAINERS), 1))
+    counts: dict[str, list[int]] = {c: [] for c in ITEMS}
     for split, env_id in enumerate(("eagc/House-v0", "eagc/HouseChallenge-v0")):
         env = gym.make(env_id, render_rgbd=False)
         for k in range(houses // 2):
@@ -53,6 +72,16 @@ def learn(houses: int) -> dict[str, np.ndarray]:
                 a, b = (kind[x] for x in c.rooms)
                 neighbour[a, b] += 1
                 neighbour[b, a] += 1
+            for d in truth.doors:
+                a, b = (kind[x] for x in d.rooms)
+                for i, j in {(a, b), (b, a)}:
+                    door_open[i, j] += (d.state == "open", 1)
+            for box in truth.containers:
+                closed[CONTAINERS.index(box.category)] += (box.state == "closed", 1)
+            for item in ITEMS:
+                n = sum(1 for o in truth.objects if o.category == item)
+                if n:
+                    counts[item].append(n)
             for room, t in enumerate(kind):
                 rooms_of[t] += 1
                 degree[t] += (len(truth.neighbours(room)), 1)
@@ -66,6 +95,11 @@ def learn(houses: int) -> dict[str, np.ndarray]:
         "neighbour": neighbour / neighbour.sum(axis=1, keepdims=True),
         "furniture": present / rooms_of[:, None],
         "degree": degree[:, 0] / np.maximum(degree[:, 1], 1),
+        "door_open": door_open[..., 0] / door_open[..., 1],
+        "container_types": np.array(CONTAINERS),
+        "container_closed": closed[:, 0] / closed[:, 1],
+        "item_types": np.array(ITEMS),
+        "count_answer": np.array([best_count(counts[c]) for c in ITEMS]),
         "houses": np.array(houses),
     }
 

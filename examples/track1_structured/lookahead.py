@@ -10,7 +10,7 @@ generated houses (``priors.py``), and goes where the prediction is worth the ste
   it), a closed container (the expected number shut inside).
 - Execution: when the goal's item or place is not in the map, it looks where it most likely
   is per step of cost: a piece of furniture by the priors (furniture category and room
-  type; opening a closed container; the storage room, shelves and cabinets for an item that
+  type; opening a closed container; the storage room, cabinets and drawers for an item that
   vanished), or a room not visited yet (how much of the category's rooms are still
   unseen).
 
@@ -222,7 +222,7 @@ class LookaheadPlanner(MapPlanner):
         if room is not None and room_type is not None and room_type != room:
             return 0.0
         p = self.priors.where(category, t.category, room_type)
-        if self.vanished and (room_type == "storage" or t.category in ("shelf", "cabinet")):
+        if self.vanished and (room_type == "storage" or t.category in ("cabinet", "drawer")):
             p += 0.2  # a vanished item is in a backup place
         if t.kind == "container" and t.state == "closed":
             return p

@@ -42,8 +42,8 @@ GONE_LOOKS = 3
 as gone (a detection is missed about one time in eight there)."""
 DOOR_PRIOR, CONTAINER_PRIOR = "open", "closed"
 """The likelier state of a door and of a container that was never seen."""
-BACKUP_FURNITURE = ("shelf", "cabinet")
-"""Where a relocated item can end up besides the storage room (the track's rules)."""
+BACKUP_FURNITURE = ("cabinet", "drawer")
+"""Where a relocated item can be put away besides the storage room (the track's rules)."""
 SEEN_ELSEWHERE = 0.05
 """What a backup place still counts for once looked at since the item vanished."""
 
@@ -222,8 +222,8 @@ class StructuredPlanner(LookaheadPlanner):
         self.seek_target = None
 
     def backup(self, t: Thing) -> bool:
-        """Whether a relocated item can be on or in ``t`` (the storage room, or a shelf or
-        cabinet elsewhere; never the room it vanished from)."""
+        """Whether a relocated item can be on or in ``t`` (the storage room, or a cabinet or
+        drawer elsewhere; never the room it vanished from)."""
         lost = self.lost.get(self.done_goals)
         room = self.model.room_of(t)
         if lost is not None and room in lost.rooms:
@@ -261,7 +261,7 @@ class StructuredPlanner(LookaheadPlanner):
 
     def unexplored_value(self, category: str, room: str | None) -> float:
         hunt = self.hunt
-        if hunt is not None and hunt[0] == "lost":  # the storage room, or a shelf or cabinet
+        if hunt is not None and hunt[0] == "lost":  # the storage room, or a cabinet or drawer
             return 0.5 if "storage" in self.model.rooms.values() else 1.0
         if hunt is not None and hunt[0] == "tool":
             return max(super(StructuredPlanner, self).unexplored_value(c, None)

@@ -31,15 +31,25 @@ TURN_STEPS = 3
 DOOR_STEPS = 2
 
 
+BACKUP_CONTAINERS = ("cabinet", "drawer")
+"""Closed storage outside the storage room, where a relocated item may be put away."""
+BACKUP_FALLBACK = ("shelf",)
+"""Where it goes when no closed storage has room: a shelf elsewhere."""
+
+
 def backup_places(truth: HouseTruth, avoid_rooms: Iterable[int],
-                  avoid: Iterable[int] = ()) -> list[int]:
-    """Receptacles where a relocated object may end up (the backup areas): everything in the
-    storage room, and shelves and cabinets elsewhere; never in ``avoid_rooms``, never one of
-    ``avoid`` (the task's destinations: a move must not do the task)."""
+                  avoid: Iterable[int] = ()) -> tuple[list[int], list[int]]:
+    """Receptacles where a relocated object may end up (the backup areas, where things are
+    put away), in two tiers: everything in the storage room and cabinets and drawers
+    elsewhere (shut after, ``_exceptions``); else, when none of those can take it, a shelf
+    elsewhere. Never in ``avoid_rooms``, never one of ``avoid`` (the task's destinations: a
+    move must not do the task)."""
     rooms, ids = set(avoid_rooms), set(avoid)
-    return [f.id for f in (*truth.furniture, *truth.containers)
-            if f.room not in rooms and f.id not in ids and f.state != "unavailable"
-            and (f.room == truth.backup_room or f.category in ("shelf", "cabinet"))]
+    usable = [f for f in (*truth.furniture, *truth.containers)
+              if f.room not in rooms and f.id not in ids and f.state != "unavailable"]
+    first = [f.id for f in usable
+             if f.room == truth.backup_room or f.category in BACKUP_CONTAINERS]
+    return first, [f.id for f in usable if f.id not in first and f.category in BACKUP_FALLBACK]
 
 
 def _access(truth: HouseTruth, entity: int) -> Point:
@@ -115,7 +125,7 @@ def _worst_case(layout: HouseLayout, truth: HouseTruth, spec: Track1Scenario,
             obj = truth.object(g.fetched)
             assert obj is not None
             ends = {x for goal in goals for x in (goal.destination, *goal.substitutes)}
-            for place in backup_places(truth, (obj.room,), ends):
+            for place in (p for tier in backup_places(truth, (obj.room,), ends) for p in tier):
                 swap = {(exc.goal, "via"): _access(truth, g.fetched),
                         (exc.goal, "from"): _access(truth, place)}
                 variants.append((goal_points(truth, goals, start, swap), ()))

@@ -13,9 +13,11 @@ When it happens (official splits, where exceptions show only through their effec
   when execution starts locks when the robot comes within ``TRIGGER_DIST`` of it. It looks
   closed until ``open`` fails with ``locked``.
 - ``object_relocation``: at the step the robot enters the room of the goal's object or
-  comes within ``TRIGGER_DIST`` of it, before that step's observation, the object moves to
-  one of the backup places out of view (storage room furniture, shelves and cabinets
-  elsewhere; not in its room nor the robot's), drawn from the scenario's seed.
+  comes within ``TRIGGER_DIST`` of it, before that step's observation, the object is put
+  away at one of the backup places (``_budgets.backup_places``: storage room furniture,
+  cabinets and drawers elsewhere, a container shut after; a shelf elsewhere only when none
+  of those has room; never in its room nor the robot's), out of view or into a closed
+  container, drawn from the scenario's seed.
 - ``container_unavailable``: when the robot, holding the goal's object, comes within
   ``TRIGGER_DIST`` of the named container, the container stops working: it looks as before
   and ``open``/``place`` on it fail with ``unavailable``.
@@ -152,14 +154,16 @@ class ControlledException:
             return []
         in_view = {d.id for d in house.visible()}
         ends = {x for g in ep.task.goals for x in (g.destination, *g.substitutes)}
-        places = [p for p in backup_places(truth, (obj.room, here), ends) if p not in in_view]
         rng = np.random.default_rng([self.seed, 2, ep.steps])
-        for k in rng.permutation(len(places)).tolist():
-            place = places[k]
-            events = self._apply(ep, lambda p=place: env.relocate_object(subject, receptacle=p),
-                                 quiet=True)
-            if events:
-                return events
+        for tier in backup_places(truth, (obj.room, here), ends):
+            # out of view, or shut already (what goes into a closed container is not seen)
+            places = [p for p in tier if p not in in_view
+                      or house.world.containers.get(p) == "closed"]
+            for k in rng.permutation(len(places)).tolist():
+                events = self._apply(ep, lambda p=places[k]: env.relocate_object(
+                    subject, receptacle=p, shut=True), quiet=True)
+                if events:
+                    return events
         return self._skip(f"object_relocation: no backup place for item {subject}")
 
     # ---------------------------------------------------------------- applying

@@ -261,11 +261,13 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         return self._house().lock_door(door_id)
 
     def relocate_object(
-        self, object_id: int, room_id: int | None = None, *, receptacle: int | None = None
+        self, object_id: int, room_id: int | None = None, *, receptacle: int | None = None,
+        shut: bool = False,
     ) -> dict[str, Any]:
-        """Move an item to a room (default: the backup area) or into a given receptacle;
-        returns an event dict."""
-        return self._house().relocate_object(object_id, room_id, receptacle=receptacle)
+        """Move an item to a room (default: the backup area) or into a given receptacle
+        (``shut``: a container is closed after); returns an event dict."""
+        return self._house().relocate_object(object_id, room_id, receptacle=receptacle,
+                                             shut=shut)
 
     def make_container_unavailable(self, container_id: int) -> dict[str, Any]:
         """Make a container unusable for good; returns an event dict."""

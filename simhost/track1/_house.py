@@ -328,11 +328,13 @@ class House:
         return self._perturbed({"kind": "door_lock", "door": door_id, "previous": before})
 
     def relocate_object(
-        self, object_id: int, room_id: int | None = None, *, receptacle: int | None = None
+        self, object_id: int, room_id: int | None = None, *, receptacle: int | None = None,
+        shut: bool = False,
     ) -> dict[str, Any]:
         """Move an object or tool onto a free surface (else an open container) in a room
         (default: the backup room), or into a given receptacle (a container's lid does not
-        matter then: the item is put inside, and the container keeps its state)."""
+        matter then: the item is put inside, and the container keeps its state unless
+        ``shut``: then it is closed after, the item put away out of sight)."""
         self._entity(object_id, ("object", "tool"))
         if object_id == self.world.held or object_id in self.world.removed:
             raise PerturbationError(f"item {object_id} is held or removed; relocate another one")
@@ -364,6 +366,11 @@ class House:
             if slot is not None:
                 self.world.places[object_id] = (f.id, slot)
                 self.sim.place_item_mocap(self.world, object_id)
+                shut_now = shut and f.kind == "container" and \
+                    self.world.containers[f.id] == "open"
+                if shut_now:
+                    self.world.containers[f.id] = "closed"
+                    self.sim.set_lid(f, False)
                 return self._perturbed(
                     {
                         "kind": "object_relocation",
@@ -371,6 +378,7 @@ class House:
                         "room": room,
                         "receptacle": f.id,
                         "previous_receptacle": previous[0],
+                        "shut": shut_now,
                     }
                 )
         where = f"receptacle {receptacle}" if receptacle is not None else f"room {room}"

@@ -17,6 +17,7 @@ import pytest
 
 from plugins import load_track
 from plugins.track1 import EXCEPTION_TYPES, EXECUTION, EXPLORATION, PLANNING, Track1Episode
+from plugins.track1._budgets import backup_places
 from plugins.track1._exceptions import route_doors
 from simhost.track1 import PRIMITIVES
 
@@ -122,6 +123,10 @@ def test_relocation_happens_on_arrival_out_of_view() -> None:
         assert rec is not None and rec.type == "object_relocation"
         moved_to = layout.entity(rec.details["receptacle"])
         assert moved_to.room not in (home.room, ep.house.robot_room)
+        first, _ = backup_places(ep.env.ground_truth(), ())
+        assert moved_to.id in first or moved_to.category == "shelf", "put away in storage"
+        if moved_to.kind == "container":
+            assert ep.house.world.containers[moved_to.id] == "closed", "shut after"
         shown = {d["id"] for d in out.observation.data["detections"]}
         assert goal.fetched not in shown, "this step's observation already shows it gone"
         assert ep.env.has_recoverable_path(ep.house_task(goal))

@@ -195,6 +195,13 @@ def test_relocation_into_a_chosen_receptacle() -> None:
     assert truth is not None and truth.receptacle == dest.id
     with pytest.raises(PerturbationError, match="item.s own"):
         env.relocate_object(item.id, receptacle=dest.id)
+    other = next(f for f in layout.furniture if f.kind == "container"
+                 and f.id != dest.id and env.ground_truth().receptacle(f.id).state == "open")
+    event = env.relocate_object(item.id, receptacle=other.id, shut=True)
+    assert event["shut"] and env.ground_truth().receptacle(other.id).state == "closed"
+    env.teleport_robot(*other.access)
+    seen = set(env.observe()[0]["det_id"].tolist())
+    assert other.id in seen and item.id not in seen, "shut away, out of sight"
 
 
 def test_perturbations_change_the_state_hash_and_survive_replay() -> None:

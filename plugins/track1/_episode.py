@@ -366,8 +366,21 @@ class Track1Episode(TrackEpisode):
         return self._ready and all(self.goal_done(g) for g in self.task.goals)
 
     def recoverable(self) -> bool:
-        """Whether every goal can still be completed from where the robot is."""
-        return all(self.env.has_recoverable_path(self.house_task(g)) for g in self.task.goals)
+        """Whether every goal can still be completed from where the robot is: each on its own
+        (the environment's check), and the place goals together (goals left to do whose
+        accepted receptacles lie within a set need as many free slots in that set: two goals
+        whose named container became unusable share its substitutes)."""
+        if not all(self.env.has_recoverable_path(self.house_task(g)) for g in self.task.goals):
+            return False
+        world, layout = self.house.world, self.env.layout
+        pending = [frozenset(self.accepted_destinations(g)) for g in self.task.goals
+                   if g.kind == "place" and not self.goal_done(g)]
+        for group in set(pending):
+            free = sum(layout.entity(r).slots - len(world.contents(r)) for r in group
+                       if r not in world.unavailable)
+            if sum(1 for p in pending if p <= group) > free:
+                return False
+        return True
 
     def _progress(self) -> list[Mapping[str, Any]]:
         """Marks the key subgoals reached at this step."""

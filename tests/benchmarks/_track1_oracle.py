@@ -222,6 +222,9 @@ class Oracle:
                     return self.act_at(rec.id, "open")
                 return self.act_at(rec.id, "pick", target=fetched)
             dests = ep.accepted_destinations(goal)
+            if goal.kind == "place":  # a substitute with room (a full one refuses the place)
+                dests = [d for d in dests if world.free_slot(ep.env.layout, d) is not None] \
+                    or dests
             x, y, _ = ep.house.robot_pose
             dest = min(dests, key=lambda d: math.dist(self._place_of(truth, d).access[:2],
                                                       (x, y)))

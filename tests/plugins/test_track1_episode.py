@@ -281,3 +281,29 @@ def test_camera_images_on_the_official_splits() -> None:
         ep.close()
     assert set(EXCEPTION_TYPES) == {"door_lock", "object_relocation", "container_unavailable",
                                     "tool_substitution"}
+
+
+def test_two_goals_sharing_a_substitute_need_room_for_both() -> None:
+    """A container two goals name becomes unusable: each goal alone could still use a
+    substitute, but a one-slot substitute cannot take both items, so the exception would
+    leave the task unsolvable and is not recoverable."""
+    plugin = load_track("track1")
+    for seed in range(3900, 4000):
+        params = plugin.make_scenario(seed=seed, split="challenge", params={}).params
+        named = [g["receptacle"] for g in params["task"]["goals"]
+                 if g["kind"] == "place" and g.get("container")]
+        if len(named) != len(set(named)):
+            break
+    else:
+        pytest.fail("no scenario with two goals naming one container in 3900-3999")
+    ep = _episode(seed)
+    try:
+        shared = next(d for d in named if named.count(d) == 2)
+        goal = next(g for g in ep.task.goals if g.destination == shared)
+        room = sum(ep.env.layout.entity(r).slots - len(ep.house.world.contents(r))
+                   for r in goal.substitutes)
+        ep.env.make_container_unavailable(shared)
+        alone = all(ep.env.has_recoverable_path(ep.house_task(g)) for g in ep.task.goals)
+        assert ep.recoverable() == (alone and room >= 2)
+    finally:
+        ep.close()

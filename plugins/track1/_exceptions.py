@@ -3,8 +3,9 @@
 At most one per episode, planned by the scenario against one goal, applied where it
 matters, and only if the task stays completable: before an exception is applied for good
 the environment must still offer a recoverable path for every goal
-(``HouseEnv.has_recoverable_path``; and room for every place goal together, ``recoverable``); otherwise the world is rolled back and the exception
-is skipped with a reason.
+(``HouseEnv.has_recoverable_path``), with room for the place goals together
+(``LiveEpisode.recoverable``); otherwise the world is rolled back and the exception is
+skipped with a reason.
 
 When it happens (official splits, where exceptions show only through their effects):
 

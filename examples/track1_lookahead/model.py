@@ -5,8 +5,9 @@ pose plus its relative position; its room is the room the robot is in (read from
 when it entered) when the line of sight crosses no doorway (walls block sight, so it must be
 in the same room), else the room behind that doorway. A door belongs to the rooms it is seen
 from directly, and to the two rooms the robot passes between when it crosses it; two such
-rooms make a connection. A thing keeps the category and colour of its first sighting and
-the position and state of its latest.
+rooms make a connection. A thing is as it was seen last: category, colour, position and
+state of its latest sighting (a thing seen from afar may read as a look-alike; the robot
+goes close to what it acts on, so the reading it acts on is a close one).
 """
 
 from __future__ import annotations
@@ -82,6 +83,7 @@ class WorldModel:
             if t.kind in ("object", "tool") and math.dist(t.position, pos) > 1.0:
                 self.moved.append(t)
             t.state, t.position, t.last_seen, t.gone = d["state"], pos, step, False
+            t.category, t.colour = d["category"], d["colour"]
             t.seen_from = (x, y)
             through = self.doorway_between((x, y), pos, exclude=d["id"])
             if through is None:

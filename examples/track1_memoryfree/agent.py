@@ -40,6 +40,17 @@ from simhost.agent import OutputFiles, RemoteEnv, TimeStep
 REACH = {"object": 1.0, "tool": 1.0, "door": 1.3}
 SIZES = {"table": 0.5, "counter": 0.55, "shelf": 0.4, "bed": 0.9, "desk": 0.45, "sofa": 0.6,
          "cabinet": 0.4, "drawer": 0.4, "fridge": 0.45, "bin": 0.3}
+LOOKALIKE = {"mug": ("bowl", "bottle"), "bowl": ("mug", "plate"), "plate": ("bowl",),
+             "book": ("towel",), "towel": ("book",), "bottle": ("mug",), "apple": ("bread",),
+             "bread": ("apple",), "plant": ("bottle",), "sponge": ("cloth",),
+             "cloth": ("sponge",), "knife": ("scissors",), "scissors": ("knife",),
+             "watering_can": ("jug",), "jug": ("watering_can",)}
+LOOKALIKE_COLOURS = {"red": ("orange",), "orange": ("red", "yellow"),
+                     "yellow": ("orange", "white"), "white": ("yellow",), "blue": ("purple",),
+                     "purple": ("blue",), "green": ("yellow",), "black": ("blue",)}
+"""What a detector may read a thing as from afar (the track's public look-alike tables)."""
+CLOSE_LOOK = 1.0
+"""Within this distance (m) a reading is trusted: a look-alike from afar is looked at closer."""
 LOOSE = 0.35
 """After this share of the execution budget spent on one goal without it, it takes the
 description loosely (an exception may have changed things): another tool with the same
@@ -118,6 +129,8 @@ class Agent:
         """Containers whose ``open``/``place`` failed with ``unavailable`` (the last two)."""
         self.refused: deque[int] = deque(maxlen=3)
         """Furniture where ``place`` failed for good (full: the last three)."""
+        self.ruled_out: deque[int] = deque(maxlen=4)
+        """Look-alikes it went closer to and found not to be what it wants (the last four)."""
         self.near_door: int | None = None
         """The door it last came within 1.5 m of (the one it entered by, after a sign)."""
         self.new_room(-1, "", revisit=False)
@@ -305,6 +318,21 @@ class Agent:
         return not (here and ref.get("room") and self.room_type
                     and self.room_type != ref["room"])
 
+    def maybe(self, d: dict, ref: dict) -> bool:
+        """Whether a thing seen from afar may be the one described, read as a look-alike
+        (worth a closer look): a look-alike category or colour, beyond ``CLOSE_LOOK``."""
+        if d["kind"] not in ("object", "tool") or d["dist"] <= CLOSE_LOOK or \
+                d["id"] in self.ruled_out:
+            return False
+        cat = d["category"] == ref["category"] or d["category"] in LOOKALIKE.get(
+            ref["category"], ())
+        col = not ref.get("colour") or d["colour"] == ref["colour"] or d["colour"] in \
+            LOOKALIKE_COLOURS.get(ref["colour"], ())
+        if not (cat and col) or self.fits(d, ref):
+            return False
+        return not (ref.get("room") and self.room_type and self.room_type != ref["room"]
+                    and not self.loose())
+
     def fetching(self, obs: dict) -> bool:
         """Whether it is still after the thing to fetch (its hand is empty)."""
         return int(obs["held"][0]) < 0
@@ -319,7 +347,10 @@ class Agent:
             if not items and goal["kind"] == "use" and self.loose():
                 items = [d for d in dets if d["kind"] == "tool"
                          and AFFORDANCES.get(d["category"]) == goal["affordance"]]
-            return (min(items, key=lambda d: d["dist"]) if items else None), "pick", {}
+            if items:
+                return min(items, key=lambda d: d["dist"]), "pick", {}
+            maybe = [d for d in dets if self.maybe(d, ref)]
+            return (min(maybe, key=lambda d: d["dist"]) if maybe else None), "look", {}
         if goal["kind"] == "place":
             dest = goal["dest"]
             here = self.room_type == dest["room"]
@@ -437,6 +468,15 @@ class Agent:
         if self.stuck >= 3:  # the way to it is blocked: search on
             self.stuck = 0
             return self.follow_wall(obs, dets)
+        if primitive == "look":  # a look-alike from afar: closer, then it is known
+            if thing["dist"] <= 1.0:
+                self.ruled_out.append(thing["id"])
+                self.lock = None
+                return self.search(obs, dets)
+            if abs(thing["bearing"]) > 0.6:
+                return {"primitive": "move", "move": [0.0, max(-1.0, min(
+                    1.0, thing["bearing"] / (math.pi / 4)))]}
+            return self.toward(obs, thing["bearing"], thing["dist"])
         reach = REACH.get(thing["kind"], SIZES.get(thing["category"], 0.5) + 0.55)
         if abs(thing["bearing"]) > 0.6:
             return {"primitive": "move", "move": [0.0, max(-1.0, min(1.0, thing["bearing"]

@@ -1,10 +1,11 @@
 """The structured world model planner (paper Table IV, "Structured WM + replanning"): the
 look-ahead planner augmented with
 
-- an object inventory with uncertainty: every sighting votes for a thing's category and
-  colour (the detector now and then reports a look-alike) and the position is the
-  inverse-variance mean of the sightings (noise grows with distance), restarted when the
-  thing is seen far from where it was;
+- an object inventory with uncertainty: the position is the inverse-variance mean of the
+  sightings (noise grows with distance), restarted when the thing is seen far from where
+  it was, and every sighting votes for its category and colour with the same weight (a
+  detector reads some things as a look-alike from afar, the same way every time: one
+  close look outweighs many distant ones);
 - a queryable topology and inventory: every query is answered, from the model when it
   knows, else from the learned priors (the most likely room for an item's category, the
   likeliest state of a door or container);
@@ -62,7 +63,7 @@ class StructuredModel(WorldModel):
 
     def __init__(self) -> None:
         super().__init__()
-        self.votes: dict[int, Counter[tuple[str, str]]] = {}
+        self.votes: dict[int, dict[tuple[str, str], float]] = {}  # label -> weight
         self.fused: dict[int, tuple[float, float, float]] = {}  # x·w, y·w, w
 
     def observe(self, pose: tuple[float, float, float], room: int, room_type: str,
@@ -79,9 +80,10 @@ class StructuredModel(WorldModel):
             self.fused[t.id] = (sx + w * t.position[0], sy + w * t.position[1], sw + w)
             sx, sy, sw = self.fused[t.id]
             t.position = (sx / sw, sy / sw)
-            votes = self.votes.setdefault(t.id, Counter())
-            votes[(d["category"], d["colour"])] += 1
-            t.category, t.colour = votes.most_common(1)[0][0]
+            votes = self.votes.setdefault(t.id, {})
+            label = (d["category"], d["colour"])
+            votes[label] = votes.get(label, 0.0) + w
+            t.category, t.colour = max(votes, key=votes.__getitem__)
         return seen
 
 

@@ -60,9 +60,11 @@ _OBS_TEXT = {
     "take); -1 in padding rows",
     "det_kind": "index into the choices of the detection's kind; -1 in padding rows",
     "det_category": "index into the choices of the category as reported (official splits: "
-    "now and then a look-alike); -1 in padding rows",
-    "det_colour": "index into the choices of the colour as reported (now and then a "
-    "look-alike); 'none' for doors and furniture; -1 in padding rows",
+    "some things read as a look-alike from afar, every time; right from closer); -1 in "
+    "padding rows",
+    "det_colour": "index into the choices of the colour as reported (official splits: a "
+    "look-alike from afar for some things); 'none' for doors and furniture; -1 in padding "
+    "rows",
     "det_state": "index into the choices of the visible state (official splits: a locked "
     "door looks closed, an unavailable container as before); -1 in padding rows",
     "det_rel_pos": "position (m) in the robot frame, x ahead and y to the left (official "

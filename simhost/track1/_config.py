@@ -1,12 +1,13 @@
 """Options of the Track 1 environment, grouped in one frozen model.
 
 Sensing is what a robot has on the official splits: a forward field of view and range (line
-of sight as before), position noise growing with distance, missed detections, some
-category and colour confusion, odometry drift, the room read from a sign when the robot
-enters it, and exceptions that show only through their effects. The ``dev`` split keeps
+of sight as before), position noise growing with distance, missed detections, some things
+read as a look-alike category or colour from afar (the same way every time), odometry
+drift, the room read from a sign when the robot enters it, and exceptions that show only
+through their effects. The ``dev`` split keeps
 exact, all-round perception (every knob at its default). Every random draw comes from a
-generator keyed by the episode's noise seed and the step count, so the same seed and the
-same actions give the same observations.
+generator keyed by the episode's noise seed (and the step count, but for what each thing
+looks like from afar), so the same seed and the same actions give the same observations.
 """
 
 from __future__ import annotations
@@ -42,11 +43,18 @@ class HouseEnvConfig(BaseModel):
     miss_rate: tuple[float, float] = (0.0, 0.0)
     """Chance that a visible item goes undetected at a step, ``a + b * distance`` (capped at
     0.9); a third of it for doors, furniture and containers."""
-    category_confusion: float = Field(0.0, ge=0, le=0.5)
-    """Chance that a detection reports a look-alike category (``CONFUSABLE``), half of it for
-    furniture and containers; drawn at every step, so looking again helps."""
-    colour_confusion: float = Field(0.0, ge=0, le=0.5)
-    """Chance that a detection reports a look-alike colour (``CONFUSABLE_COLOURS``)."""
+    category_confusion: float = Field(0.0, ge=0, le=1)
+    """Share of the objects and tools that read as a look-alike category (``CONFUSABLE``)
+    whenever seen from farther than their own distance (``confusion_beyond``); half of it
+    for furniture and containers; doors never. A detector's mistakes come from how a thing
+    looks, so they repeat: looking again from afar does not help, a closer look does."""
+    colour_confusion: float = Field(0.0, ge=0, le=1)
+    """Share of the things that read as a look-alike colour (``CONFUSABLE_COLOURS``) from
+    afar, as ``category_confusion``."""
+    confusion_beyond: tuple[float, float] = (1.0, 3.0)
+    """The distance (metres) beyond which a confusable object or tool reads as its
+    look-alike, drawn once per thing and episode, uniformly in this range; for furniture and
+    containers scaled by ``sensing_range / item_range``. Closer, it reads right."""
     odometry_noise: tuple[float, float] = (0.0, 0.0)
     """Odometry drift: standard deviation of the translation error per metre driven (along
     and across), and of the heading error per radian turned (plus a fifth of it per metre

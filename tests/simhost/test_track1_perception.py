@@ -131,6 +131,38 @@ def test_detector_model_against_the_truth() -> None:
     assert confused["category"] > 0 and confused["colour"] > 0
 
 
+def test_look_alikes_repeat_from_afar_and_read_right_up_close() -> None:
+    """A confusable thing reads as the same look-alike every time it is seen from beyond its
+    own distance, and right from within ``confusion_beyond[0]``: looking again from afar
+    does not correct it, a closer look does."""
+    lo, _hi = house_split("challenge").config.confusion_beyond
+    env = HouseEnv(split="challenge", render_rgbd=False, miss_rate=(0.0, 0.0),
+                   position_noise=(0.0, 0.0))
+    env.reset(seed=4)
+    house = env.house
+    assert house is not None
+    categories: dict[int, set[str]] = {}
+    colours: dict[int, set[str]] = {}
+    wrong_far: Counter[int] = Counter()
+    for pose in _tour(env):
+        env.teleport_robot(*pose)
+        env.step(make_action("noop"))
+        exact = {d.id: d for d in house.visible()}
+        for d in house.detections():
+            t = exact[d.id]
+            if (d.category, d.colour) != (t.category, t.colour):
+                assert t.distance > lo, (t, d)  # never wrong up close
+                wrong_far[d.id] += 1
+            categories.setdefault(d.id, set()).add(d.category)
+            colours.setdefault(d.id, set()).add(d.colour)
+    assert wrong_far, "some things read as a look-alike from afar"
+    for k in wrong_far:  # the same look-alike every time (besides the right reading)
+        assert len(categories[k]) <= 2 and len(colours[k]) <= 2, (categories[k], colours[k])
+    items = [i.id for i in env.layout.items if i.id in categories]
+    share = sum(1 for i in items if i in wrong_far) / len(items)
+    assert 0.05 < share < 0.6, share
+
+
 def test_odometry_drifts_but_dev_odometry_is_exact() -> None:
     dev = HouseEnv(split="dev")
     dev.reset(seed=2)

@@ -82,7 +82,8 @@ class WorldModel:
                                                   d["state"], pos)
             if t.kind in ("object", "tool") and math.dist(t.position, pos) > 1.0:
                 self.moved.append(t)
-            t.state, t.position, t.last_seen, t.gone = d["state"], pos, step, False
+            t.state = self.seen_state(t, d["state"])
+            t.position, t.last_seen, t.gone = pos, step, False
             t.category, t.colour = d["category"], d["colour"]
             t.seen_from = (x, y)
             through = self.doorway_between((x, y), pos, exclude=d["id"])
@@ -103,6 +104,17 @@ class WorldModel:
                 door.rooms[self.last_room] += 3
         self.last_room = room
         return seen
+
+    @staticmethod
+    def seen_state(t: Thing, reading: str) -> str:
+        """A thing's state after a sighting. A locked door looks closed and an unavailable
+        container looks as before (only a failed ``open`` or ``place`` tells): what a failure
+        taught is kept until a sighting contradicts it (a door seen open is not locked)."""
+        if t.state == "locked" and reading == "closed":
+            return "locked"
+        if t.state == "unavailable":
+            return "unavailable"
+        return reading
 
     def doorway_between(self, a: tuple[float, float], b: tuple[float, float],
                          exclude: int) -> int | None:

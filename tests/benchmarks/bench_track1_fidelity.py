@@ -19,7 +19,8 @@
 - ``--render``: render the egocentric RGB-D + segmentation the official splits carry. Off
   by default: no baseline reads images, rendering changes nothing in the simulation, and it
   is two thirds of a step's cost.
-- ``--json``: also write every episode's figures.
+- ``--json``: also write every episode's figures (its score card's components and
+  metrics: the parts of the model and recovery scores among them).
 
 Every episode is played in process by ``_track1_harness.DirectEnv``: the sim host's rules
 (stages, step budgets, action checks, invalid actions, /output snapshots with the worker's
@@ -101,7 +102,7 @@ def child(system: str, split: str, seeds: list[int], cap: int | None, render: bo
             "recovery": card.metrics.get("recovery"), "invalid": p.invalid_actions,
             "latency_ms": median(p.latencies_ms), "steps": p.steps, "status": p.status.value,
             "exception": p.exception, "error": p.error, "wall_s": time.perf_counter() - t0,
-            "components": card.components}), flush=True)
+            "components": card.components, "metrics": card.metrics}), flush=True)
 
 
 def _run_child(system: str, split: str, seeds: list[int], cap: int | None,

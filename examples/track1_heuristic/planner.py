@@ -145,10 +145,11 @@ class MapPlanner:
         if reason == "unavailable" and thing is not None and thing.kind == "container":
             thing.state = "unavailable"
             self.report("container_unavailable", ts.stage, container=target)
-        if last["primitive"] == "open":
-            opener = self.opener or self.nav.door
-            if opener is not None and opener.door.id == target:
-                opener.result(reason)
+        if last["primitive"] == "open":  # to the opener that sent it (an exploration
+            for opener in (self.opener, self.nav.door):  # goal's may be a stale one)
+                if opener is not None and opener.door.id == target:
+                    opener.result(reason)
+                    break
 
     # ------------------------------------------------------------------ exploration
     def explore(self, ts: TimeStep) -> dict[str, Any] | None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
+from collections.abc import Iterator
 from typing import Any
 
 import gymnasium as gym
@@ -100,19 +101,25 @@ def _tour(env: HouseEnv) -> list[tuple[float, float, float]]:
             for f in env.layout.furniture for turn in (0.0, math.pi / 2, -math.pi / 2)]
 
 
-def test_detector_model_against_the_truth() -> None:
-    env = HouseEnv(split="challenge", render_rgbd=False)
-    env.reset(seed=3)
+def _looks(env: HouseEnv) -> Iterator[tuple[dict[int, Any], list[Any]]]:
+    """At every pose of the tour: the exact entities in view (by id) and what the detector
+    reports of them."""
     house = env.house
     assert house is not None
-    errors: list[tuple[float, float]] = []
-    shown = missed = 0
-    confused: Counter[str] = Counter()
     for pose in _tour(env):
         env.teleport_robot(*pose)
         env.step(make_action("noop"))
-        exact = {d.id: d for d in house.visible()}
-        for d in house.detections():
+        yield {d.id: d for d in house.visible()}, house.detections()
+
+
+def test_detector_model_against_the_truth() -> None:
+    env = HouseEnv(split="challenge", render_rgbd=False)
+    env.reset(seed=3)
+    errors: list[tuple[float, float]] = []
+    shown = missed = 0
+    confused: Counter[str] = Counter()
+    for exact, reported in _looks(env):
+        for d in reported:
             t = exact[d.id]
             errors.append((t.distance, math.dist(d.rel_pos, t.rel_pos)))
             if d.category != t.category:
@@ -121,8 +128,8 @@ def test_detector_model_against_the_truth() -> None:
             if d.colour != t.colour:
                 assert d.colour in CONFUSABLE_COLOURS[t.colour]
                 confused["colour"] += 1
-        shown += len(house.detections())
-        missed += len(exact) - len(house.detections())
+        shown += len(reported)
+        missed += len(exact) - len(reported)
     near = [e for d, e in errors if d < 1.5]
     far = [e for d, e in errors if d > 3.0]
     assert len(near) > 20 and len(far) > 20
@@ -139,16 +146,11 @@ def test_look_alikes_repeat_from_afar_and_read_right_up_close() -> None:
     env = HouseEnv(split="challenge", render_rgbd=False, miss_rate=(0.0, 0.0),
                    position_noise=(0.0, 0.0))
     env.reset(seed=4)
-    house = env.house
-    assert house is not None
     categories: dict[int, set[str]] = {}
     colours: dict[int, set[str]] = {}
     wrong_far: Counter[int] = Counter()
-    for pose in _tour(env):
-        env.teleport_robot(*pose)
-        env.step(make_action("noop"))
-        exact = {d.id: d for d in house.visible()}
-        for d in house.detections():
+    for exact, reported in _looks(env):
+        for d in reported:
             t = exact[d.id]
             if (d.category, d.colour) != (t.category, t.colour):
                 assert t.distance > lo, (t, d)  # never wrong up close

@@ -35,10 +35,13 @@ invalid actions per episode, median agent decision time in ms) above the paper's
 calibration checks: final within 10 points of the paper, Table IV's order, the heuristic
 above the memory-free policy on model and recovery, the structured planner highest on both,
 oracle >= 95 and nothing <= 5 on both splits, and the same score for the same seed twice.
+Each Final check also gives the Final's standard error (from the spread of the episodes'
+scores): on 20 + 20 seeds it is 4-5 points for the baselines (3-3.7 on 40 + 40), so a
+check missed by less than that may be chance alone.
 
-Not collected by pytest (the file is ``bench_*.py``). With 2 workers on 2 cores: about
-3.5 min for 15 + 15 seeds of every system on a quiet machine, 16-28 min for 40 + 40 while
-other jobs load it (load average 5-8); one system alone is a fifth to a tenth of that.
+Not collected by pytest (the file is ``bench_*.py``). With 2 workers on 2 cores: 4-5 min
+for 40 + 40 seeds of every system on a quiet machine, about 8 while the test suite runs
+beside it; one system alone is a fifth to a tenth of that.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -128,12 +132,24 @@ def _mean(values: list[float]) -> float:
     return statistics.fmean(values) if values else float("nan")
 
 
+def _final_se(standard: list[dict[str, Any]], challenge: list[dict[str, Any]]) -> float:
+    """The standard error of the Final (points) from the spread of the episodes' scores: how
+    far another sample of as many seeds may land by chance alone."""
+    var = 0.0
+    for weight, results in ((0.6, standard), (0.4, challenge)):
+        if len(results) < 2:
+            return float("nan")
+        var += weight ** 2 * statistics.variance([r["total"] for r in results]) / len(results)
+    return 100 * math.sqrt(var)
+
+
 def row(results: list[dict[str, Any]]) -> dict[str, float]:
     by = {s: [r for r in results if r["split"] == s] for s in ("standard", "challenge")}
     std = 100 * _mean([r["total"] for r in by["standard"]])
     ch = 100 * _mean([r["total"] for r in by["challenge"]])
     recovery = [r["recovery"] for r in results if r["recovery"] is not None]
     return {"std": std, "ch": ch, "final": 0.6 * std + 0.4 * ch,
+            "final_se": _final_se(by["standard"], by["challenge"]),
             "success": 100 * _mean([r["success"] for r in results]),
             "model": 100 * _mean([r["model"] for r in results]),
             "recovery": 100 * _mean(recovery), "invalid": _mean([r["invalid"] for r in results]),
@@ -164,7 +180,9 @@ def checks(rows: dict[str, dict[str, float]], repeat: tuple[str, float, float] |
     for system in PAPER:
         if system in rows:
             got, want = rows[system]["final"], PAPER[system][2]
-            out.append((f"{system}: final {got:.1f} within 10 of {want}", abs(got - want) <= 10))
+            se = rows[system]["final_se"]
+            out.append((f"{system}: final {got:.1f} within 10 of {want} (s.e. {se:.1f})",
+                        abs(got - want) <= 10))
     baselines = [s for s in PAPER if s in rows]
     if len(baselines) == len(PAPER):
         f = {s: rows[s]["final"] for s in baselines}

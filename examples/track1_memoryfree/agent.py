@@ -48,7 +48,9 @@ LOOKALIKE = {"mug": ("bowl", "bottle"), "bowl": ("mug", "plate"), "plate": ("bow
 LOOKALIKE_COLOURS = {"red": ("orange",), "orange": ("red", "yellow"),
                      "yellow": ("orange", "white"), "white": ("yellow",), "blue": ("purple",),
                      "purple": ("blue",), "green": ("yellow",), "black": ("blue",)}
-"""What a detector may read a thing as from afar (the track's public look-alike tables)."""
+"""What a detector may read a thing as from afar: copies of the track's public tables for
+objects and tools (``simhost.track1.CONFUSABLE``, ``CONFUSABLE_COLOURS``; the image cannot
+import the simulator), kept equal by a test."""
 CLOSE_LOOK = 1.0
 """Within this distance (m) a reading is trusted: a look-alike from afar is looked at closer."""
 LOOSE = 0.35
@@ -469,7 +471,7 @@ class Agent:
             self.stuck = 0
             return self.follow_wall(obs, dets)
         if primitive == "look":  # a look-alike from afar: closer, then it is known
-            if thing["dist"] <= 1.0:
+            if thing["dist"] <= CLOSE_LOOK:
                 self.ruled_out.append(thing["id"])
                 self.lock = None
                 return self.search(obs, dets)

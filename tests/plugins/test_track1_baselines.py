@@ -132,6 +132,18 @@ def test_the_in_process_harness_scores_as_the_worker_does(runs: Path) -> None:
     assert local.card.components == pytest.approx(real.score.components, abs=1e-9)
 
 
+def test_memoryfree_look_alike_tables_are_the_tracks() -> None:
+    """The memory-free policy's look-alike tables are copies (its image cannot import the
+    simulator): they must say what the track's detector does, for every object and tool."""
+    from simhost.track1 import CONFUSABLE, CONFUSABLE_COLOURS
+    from simhost.track1._catalogue import OBJECT_CATEGORIES, TOOL_CATEGORIES
+
+    agent = _load(EXAMPLES / "track1_memoryfree")
+    items = (*OBJECT_CATEGORIES, *TOOL_CATEGORIES)
+    assert agent.LOOKALIKE == {k: v for k, v in CONFUSABLE.items() if k in items}
+    assert agent.LOOKALIKE_COLOURS == CONFUSABLE_COLOURS
+
+
 def test_memoryfree_reports_the_doorways_it_passes_and_only_real_ones() -> None:
     """The memory-free policy writes the doorways it passes between two signed rooms into its
     report (write-only: it never reads it back). Every connection it reports is an edge of

@@ -11,20 +11,20 @@ import importlib
 from typing import Any
 
 _EXPORTS = {
-    "run_episode": "orchestrator._worker",
-    "EpisodeSpec": "orchestrator._worker",
-    "new_episode_id": "orchestrator._worker",
-    "DockerRuntime": "orchestrator._docker",
-    "LocalProcessRuntime": "orchestrator._local",
-    "AgentRuntime": "orchestrator._runtime",
-    "AgentLaunch": "orchestrator._runtime",
-    "AgentHandle": "orchestrator._runtime",
-    "AgentStartError": "orchestrator._runtime",
-    "InfraError": "orchestrator._runtime",
+    "run_episode": "orchestrator._episode.worker",
+    "EpisodeSpec": "orchestrator._episode.worker",
+    "new_episode_id": "orchestrator._episode.worker",
+    "DockerRuntime": "orchestrator._runtimes.docker",
+    "LocalProcessRuntime": "orchestrator._runtimes.local",
+    "AgentRuntime": "orchestrator._runtimes.interface",
+    "AgentLaunch": "orchestrator._runtimes.interface",
+    "AgentHandle": "orchestrator._runtimes.interface",
+    "AgentStartError": "orchestrator._runtimes.interface",
+    "InfraError": "orchestrator._runtimes.interface",
     "OrchestratorError": "orchestrator._errors",
     "UsageError": "orchestrator._errors",
-    "collect": "orchestrator._collect",
-    "build_all": "orchestrator._images",
+    "collect": "orchestrator._episode.collect",
+    "build_all": "orchestrator._images.build",
 }
 
 __all__ = [

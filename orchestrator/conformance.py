@@ -3,7 +3,7 @@
 
 Subclass it in a test module and give it two pytest fixtures: ``runtime`` (the
 ``AgentRuntime`` under test) and ``probe_image`` (what that runtime starts to run the probe
-agent, ``orchestrator/_runtime_probe.py``)::
+agent, ``orchestrator/_programs/runtime_probe.py``)::
 
     from orchestrator.conformance import RuntimeConformance, SandboxConformance
 
@@ -44,8 +44,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
-from orchestrator._collect import mount_output, unmount_output
-from orchestrator._runtime import (
+from orchestrator._episode.collect import mount_output, unmount_output
+from orchestrator._runtimes.interface import (
     AgentHandle,
     AgentLaunch,
     AgentRuntime,
@@ -62,7 +62,7 @@ __all__ = [
 ]
 
 #: The probe agent's script (standard library only).
-PROBE_SCRIPT = Path(__file__).with_name("_runtime_probe.py")
+PROBE_SCRIPT = Path(__file__).parent / "_programs" / "runtime_probe.py"
 _RESULT = "probe-result.json"
 #: Environment variables a sandboxed agent may see besides the contract's: what a base image
 #: sets for itself (and ``LC_*``).
@@ -75,7 +75,7 @@ def probe_build_context(folder: Path, base_image: str = "eagc/agent-base:latest"
     folder.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(PROBE_SCRIPT, folder / "probe.py")
     (folder / "Dockerfile").write_text(
-        "# The runtime conformance probe (orchestrator/_runtime_probe.py), built offline.\n"
+        "# The runtime conformance probe (_programs/runtime_probe.py), built offline.\n"
         f"FROM {base_image}\n"
         "COPY probe.py /app/probe.py\n"
         f"USER {CONTAINER.uid}:{CONTAINER.uid}\n"

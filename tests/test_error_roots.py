@@ -25,7 +25,7 @@ ROOTS: dict[str, type[Exception]] = {
     "orchestrator": OrchestratorError,
 }
 #: Modules that run something when imported (entry points of a container or a process).
-SKIP = {"schemas.__main__", "orchestrator._runtime_probe"}
+SKIP = {"schemas.__main__", "orchestrator.cli.__main__", "orchestrator._programs.runtime_probe"}
 
 
 def _errors(package: str) -> list[type[BaseException]]:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator._cpus import _lock_dir, placed
+from orchestrator._runtimes.cpus import _lock_dir, placed
 
 
 def test_the_session_has_its_own_lock_folder(tmp_path_factory: pytest.TempPathFactory) -> None:
@@ -26,7 +26,7 @@ def test_the_session_has_its_own_lock_folder(tmp_path_factory: pytest.TempPathFa
 def test_processes_started_by_tests_inherit_it() -> None:
     """Drivers and Ray workers are processes the tests start: they see the same folder."""
     r = subprocess.run([sys.executable, "-c",
-                        "from orchestrator._cpus import _lock_dir; print(_lock_dir())"],
+                        "from orchestrator._runtimes.cpus import _lock_dir; print(_lock_dir())"],
                        capture_output=True, text=True, check=True)
     assert r.stdout.strip() == os.environ["EAGC_LOCK_DIR"]
 

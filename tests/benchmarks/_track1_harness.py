@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from orchestrator._collect import collect
+from orchestrator._episode.collect import collect
 from plugins import ScoringInput, load_track
 from plugins.track1 import Track1Episode
 from schemas import (

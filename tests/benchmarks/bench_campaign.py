@@ -79,13 +79,13 @@ def main() -> None:
 
     import ray
 
-    from orchestrator._campaign import CampaignOptions, store_path
-    from orchestrator._docker import DockerRuntime, docker_client
-    from orchestrator._driver import run_campaign
-    from orchestrator._images import build_agent_base, build_folder
-    from orchestrator._seeds import load_secret, seed_list
-    from orchestrator._store import ResultsStore
-    from orchestrator._worker import EpisodeSpec, run_episode
+    from orchestrator._campaign.driver import run_campaign
+    from orchestrator._campaign.seeds import load_secret, seed_list
+    from orchestrator._campaign.spec import CampaignOptions, store_path
+    from orchestrator._episode.worker import EpisodeSpec, run_episode
+    from orchestrator._images.build import build_agent_base, build_folder
+    from orchestrator._results.store import ResultsStore
+    from orchestrator._runtimes.docker import DockerRuntime, docker_client
     from schemas import CampaignSpec, Limits, Split, Submission
 
     client = docker_client()

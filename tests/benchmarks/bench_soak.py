@@ -1,6 +1,6 @@
 """Soak benchmark: a long campaign of short episodes, watched for anything that grows.
 
-One real driver process (``python -m orchestrator._campaign_cli run``) on its own embedded
+One real driver process (``python -m orchestrator.cli.campaign run``) on its own embedded
 Ray with two container slots runs ``--episodes`` short Docker episodes (the waiting test
 agent, ``--steps`` steps of 0.1 s in each of the two sanity stages). Every few seconds the
 benchmark samples, beside the number of committed episodes:
@@ -113,8 +113,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=1, help="steps per stage (0.1 s each)")
     ap.add_argument("--every", type=float, default=5.0, help="seconds between samples")
     args = ap.parse_args()
-    from orchestrator._docker import docker_client
-    from orchestrator._images import build_agent_base, build_folder
+    from orchestrator._images.build import build_agent_base, build_folder
+    from orchestrator._runtimes.docker import docker_client
 
     engine = docker_client()
     build_agent_base(engine, lambda m: None)
@@ -139,7 +139,7 @@ def main() -> None:
     print(f"{args.episodes} episodes, 2 slots, {args.steps} step(s) of {STEP_S} s per stage")
     started = time.time()
     driver = subprocess.Popen(
-        [sys.executable, "-m", "orchestrator._campaign_cli", "run", str(campaign),
+        [sys.executable, "-m", "orchestrator.cli.campaign", "run", str(campaign),
          "--workers", "2", "--no-progress"], env=env, cwd=REPO,
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     samples: list[dict[str, float]] = []

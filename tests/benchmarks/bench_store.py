@@ -30,7 +30,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _machine import load_average, machine_line  # noqa: E402
 
-from orchestrator._store import EpisodeKey, ResultsStore  # noqa: E402
+from orchestrator._results.store import EpisodeKey, ResultsStore  # noqa: E402
 from schemas import (  # noqa: E402
     CampaignSpec,
     EpisodeResult,

@@ -80,8 +80,8 @@ def run_one(agent: str, split: str, seed: int, index: int, runs: str,
         from _track2_inproc import run_inproc
 
         return run_inproc(BASELINES[agent], seed=seed, split=split, index=index)
-    from orchestrator._local import LocalProcessRuntime
-    from orchestrator._worker import EpisodeSpec, run_episode
+    from orchestrator._episode.worker import EpisodeSpec, run_episode
+    from orchestrator._runtimes.local import LocalProcessRuntime
     from schemas import Limits
 
     spec = EpisodeSpec(track="track2", image=f"python examples/{BASELINES[agent]}/agent.py",

@@ -30,8 +30,8 @@ REPO = Path(__file__).resolve().parents[2]
 
 @pytest.fixture(scope="module")
 def engine() -> Any:
-    from orchestrator._docker import docker_client
-    from orchestrator._runtime import InfraError
+    from orchestrator._runtimes.docker import docker_client
+    from orchestrator._runtimes.interface import InfraError
 
     try:
         return docker_client()
@@ -93,8 +93,8 @@ def test_quickstart_in_a_fresh_venv(engine: Any, tmp_path: Path, short_dir: Path
 
     # The wheel build from this venv, to a real image (a scratch tag: nobody else's).
     tag = f"eagc-test/agent-base-venv:{secrets.token_hex(4)}"
-    build = ("from orchestrator._docker import docker_client\n"
-             "from orchestrator._images import build_agent_base\n"
+    build = ("from orchestrator._runtimes.docker import docker_client\n"
+             "from orchestrator._images.build import build_agent_base\n"
              f"build_agent_base(docker_client(), say=print, force=True, tag={tag!r})\n")
     try:
         r = subprocess.run([str(py), "-c", build], capture_output=True, text=True, env=env,

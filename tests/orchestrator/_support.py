@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from orchestrator._docker import DockerRuntime
-from orchestrator._runtime import AgentHandle, AgentLaunch
+from orchestrator._runtimes.docker import DockerRuntime
+from orchestrator._runtimes.interface import AgentHandle, AgentLaunch
 
 
 class RecordingRuntime(DockerRuntime):

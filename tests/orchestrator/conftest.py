@@ -14,8 +14,8 @@ TEST_IMAGES = ["probe", "oom", "crash", "frozen", "silent", "bad_files"]
 
 @pytest.fixture(scope="session")
 def docker_engine() -> Any:
-    from orchestrator._docker import docker_client
-    from orchestrator._runtime import InfraError
+    from orchestrator._runtimes.docker import docker_client
+    from orchestrator._runtimes.interface import InfraError
 
     try:
         return docker_client()
@@ -28,7 +28,7 @@ def docker_engine() -> Any:
 @pytest.fixture(scope="session")
 def images(docker_engine: Any) -> dict[str, str]:
     """Base, agent base, example agents and the hostile test containers, built offline."""
-    from orchestrator._images import build_all, build_folder
+    from orchestrator._images.build import build_all, build_folder
 
     tags = {t: t for t in build_all(client=docker_engine, say=lambda m: None)}
     for name in TEST_IMAGES:

@@ -11,8 +11,8 @@ import docker
 import pytest
 from test_campaign_helpers import RayCluster, build_campaign_images, short_dir, write_campaign
 
-from orchestrator._campaign import load_campaign, store_path
-from orchestrator._store import ResultsStore
+from orchestrator._campaign.spec import load_campaign, store_path
+from orchestrator._results.store import ResultsStore
 
 pytestmark = [pytest.mark.docker, pytest.mark.slow]
 
@@ -30,7 +30,7 @@ def test_campaign_runs_on_both_nodes(docker_engine: Any) -> None:
         spec = load_campaign(path)
         # The driver is a process of its own, joining with the token like any other.
         r = subprocess.run(
-            [sys.executable, "-m", "orchestrator._campaign_cli", "run", str(path),
+            [sys.executable, "-m", "orchestrator.cli.campaign", "run", str(path),
              "--address", cluster.address, "--no-progress"],
             env=cluster.env, capture_output=True, text=True, timeout=300)
         assert r.returncode == 0, r.stdout + r.stderr

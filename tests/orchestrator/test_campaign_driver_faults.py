@@ -45,7 +45,7 @@ def _running(folder: Path, name: str, n: int) -> Any:
 def _holding(folder: Path) -> list[int]:
     """Pids with a file open under ``folder`` (Ray's agents rename themselves, so their
     command lines do not name it)."""
-    from orchestrator._raysentinel import _holds
+    from orchestrator._programs.ray_sentinel import _holds
 
     return [int(d.name) for d in Path("/proc").iterdir()
             if d.name.isdigit() and _holds(int(d.name), str(folder))]

@@ -1,6 +1,6 @@
 """Faults: a worker killed mid-episode, a driver killed mid-campaign and started again.
 
-The drivers are real processes (``python -m orchestrator._campaign_cli run``) on their own
+The drivers are real processes (``python -m orchestrator.cli.campaign run``) on their own
 embedded Ray, in a temp dir of their own (``RAY_TMPDIR``) so that whatever a killed driver
 leaves behind is found and ended by this test, and only that.
 """
@@ -46,7 +46,7 @@ def _driver(path: Path, ray_tmp: Path, *args: str) -> subprocess.Popen[str]:
     jobs with SIGINT ignored, and an ignored signal stays ignored across exec)."""
     env = {**os.environ, "RAY_TMPDIR": str(ray_tmp), "RAY_USAGE_STATS_ENABLED": "0"}
     return subprocess.Popen(
-        [sys.executable, "-m", "orchestrator._campaign_cli", "run", str(path), "--no-progress",
+        [sys.executable, "-m", "orchestrator.cli.campaign", "run", str(path), "--no-progress",
          *args], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         start_new_session=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # noqa: PLW1509
@@ -143,7 +143,7 @@ def test_killed_workers_retry_quarantine_and_release(docker_engine: Any, ray_tmp
     mounts = Path("/proc/self/mounts").read_text()
     assert victim["episode"] not in mounts and second["episode"] not in mounts
 
-    board = subprocess.run([sys.executable, "-m", "orchestrator._campaign_cli", "leaderboard",
+    board = subprocess.run([sys.executable, "-m", "orchestrator.cli.campaign", "leaderboard",
                             str(path), "--format", "json"], capture_output=True, text=True)
     doc = json.loads(board.stdout)
     assert doc["rows"][0]["state"] == "pending" and doc["rows"][0]["quarantined"] == 1
@@ -163,7 +163,7 @@ def test_killed_workers_retry_quarantine_and_release(docker_engine: Any, ray_tmp
                  and (e["submission"], e["split"], e["index"]) == key]
     assert len(committed) == 1
     assert db.execute("SELECT COUNT(*) FROM quarantine").fetchone() == (0,)
-    board = subprocess.run([sys.executable, "-m", "orchestrator._campaign_cli", "leaderboard",
+    board = subprocess.run([sys.executable, "-m", "orchestrator.cli.campaign", "leaderboard",
                             str(path), "--format", "json"], capture_output=True, text=True)
     assert json.loads(board.stdout)["rows"][0]["state"] == "final"
 

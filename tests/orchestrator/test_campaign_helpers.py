@@ -113,7 +113,7 @@ def build_campaign_images(engine: Any, *tests: str) -> None:
     Only what the campaign tests run (the ``images`` fixture builds every example agent,
     including other tracks' that may be work in progress).
     """
-    from orchestrator._images import build_agent_base, build_folder
+    from orchestrator._images.build import build_agent_base, build_folder
 
     quiet = lambda m: None  # noqa: E731
     build_agent_base(engine, quiet)

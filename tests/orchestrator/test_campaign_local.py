@@ -28,13 +28,13 @@ from test_campaign_helpers import (
 )
 from typer.testing import CliRunner
 
-from orchestrator._campaign import CampaignOptions, load_campaign, store_path
-from orchestrator._campaign_cli import campaign_app
-from orchestrator._driver import run_campaign
-from orchestrator._leaderboard import build_leaderboard
-from orchestrator._metrics import CampaignMetrics
-from orchestrator._seeds import load_secret, seed_list
-from orchestrator._store import ResultsStore
+from orchestrator._campaign.driver import run_campaign
+from orchestrator._campaign.metrics import CampaignMetrics
+from orchestrator._campaign.seeds import load_secret, seed_list
+from orchestrator._campaign.spec import CampaignOptions, load_campaign, store_path
+from orchestrator._results.leaderboard import build_leaderboard
+from orchestrator._results.store import ResultsStore
+from orchestrator.cli.campaign import campaign_app
 from schemas import EpisodeStatus
 
 pytestmark = [pytest.mark.docker, pytest.mark.slow]

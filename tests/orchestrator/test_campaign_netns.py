@@ -124,7 +124,7 @@ def test_a_worker_node_cut_off_mid_episode(docker_engine: Any) -> None:
         # ~25 s episodes: 125 steps of 0.1 s in each of two stages.
         path = write_campaign(folder, name, WAITING, standard=2, challenge=2, retries=2,
                               limits={"memory_mb": 256, "max_steps_per_stage": 125})
-        driver = hosts.run(hosts.head_ns, sys.executable, "-m", "orchestrator._campaign_cli",
+        driver = hosts.run(hosts.head_ns, sys.executable, "-m", "orchestrator.cli.campaign",
                            "run", str(path), "--address", hosts.address, "--no-progress",
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            cwd=Path(__file__).resolve().parents[2])

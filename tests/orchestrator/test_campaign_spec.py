@@ -10,9 +10,9 @@ from typing import Any
 import pytest
 from test_campaign_helpers import build_campaign_images
 
-from orchestrator._campaign import CampaignError, load_campaign, plan
-from orchestrator._fanout import EpisodeJob, _ensure_image, pin_images
-from orchestrator._runtime import InfraError
+from orchestrator._campaign.fanout import EpisodeJob, _ensure_image, pin_images
+from orchestrator._campaign.spec import CampaignError, load_campaign, plan
+from orchestrator._runtimes.interface import InfraError
 from schemas import Limits, SchemaError
 
 REPO = Path(__file__).resolve().parents[2]

@@ -2,7 +2,7 @@
 (naming `eagc campaign rebuild-store`), which rebuilds it from the episode folders; and an
 embedded Ray never attaches to another cluster on the machine, without Ray's token warning.
 
-Real drivers (``python -m orchestrator._campaign_cli``) on a real embedded Ray; the agents
+Real drivers (``python -m orchestrator.cli.campaign``) on a real embedded Ray; the agents
 are the sanity baseline as local processes (the store is what is tested here, not the
 sandbox).
 """
@@ -55,7 +55,7 @@ def _cli(ray_tmp: Path, *args: str, env: dict[str, str] | None = None
     full = {**os.environ, "RAY_TMPDIR": str(ray_tmp), "RAY_USAGE_STATS_ENABLED": "0",
             **(env or {})}
     full.pop("RAY_AUTH_MODE", None)  # as a fresh shell has it: the driver configures it
-    return subprocess.run([sys.executable, "-m", "orchestrator._campaign_cli", *args],
+    return subprocess.run([sys.executable, "-m", "orchestrator.cli.campaign", *args],
                           env=full, capture_output=True, text=True, timeout=300)
 
 

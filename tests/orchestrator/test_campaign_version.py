@@ -18,9 +18,9 @@ import pytest
 import yaml
 from test_campaign_helpers import short_dir, write_campaign
 
-import orchestrator._fanout as fanout
-from orchestrator._campaign import CampaignOptions, load_campaign
-from orchestrator._driver import run_campaign
+import orchestrator._campaign.fanout as fanout
+from orchestrator._campaign.driver import run_campaign
+from orchestrator._campaign.spec import CampaignOptions, load_campaign
 
 
 def test_code_version_follows_the_sources(tmp_path: Path) -> None:

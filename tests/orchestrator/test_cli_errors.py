@@ -12,8 +12,8 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from orchestrator._cli_common import ExitCode, OneLineErrors
 from orchestrator.cli import app
+from orchestrator.cli.common import ExitCode, OneLineErrors
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from orchestrator._collect import collect
+from orchestrator._episode.collect import collect
 
 
 def test_regular_files_are_read(tmp_path: Path) -> None:

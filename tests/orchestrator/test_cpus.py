@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator._cpus import Placement, placed, plan
-from orchestrator._local import LocalProcessRuntime
-from orchestrator._runtime import AgentLaunch
+from orchestrator._runtimes.cpus import Placement, placed, plan
+from orchestrator._runtimes.interface import AgentLaunch
+from orchestrator._runtimes.local import LocalProcessRuntime
 from schemas import Limits
 
 CORES = sorted(os.sched_getaffinity(0))

@@ -28,7 +28,7 @@ PROBE = ("import ray; ray.init(address='auto', logging_level='ERROR'); "
 
 
 def test_compose_ray_head_starts_with_token_auth(docker_engine: Any) -> None:
-    from orchestrator._images import BASE_IMAGE, build_base
+    from orchestrator._images.build import BASE_IMAGE, build_base
 
     build_base(docker_engine, lambda m: None)
     r = subprocess.run(["bash", str(DEPLOY / "worker" / "build.sh"), TAG],

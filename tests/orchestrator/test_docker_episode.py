@@ -11,7 +11,7 @@ import pytest
 from _support import RecordingRuntime  # tests/orchestrator/_support.py
 from mcap.reader import make_reader
 
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._episode.worker import EpisodeSpec, run_episode
 from schemas import EpisodeResult, EpisodeStatus, Limits, load_json
 
 pytestmark = [pytest.mark.docker]

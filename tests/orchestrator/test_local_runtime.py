@@ -5,9 +5,9 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-from orchestrator._agentcheck import contract_checks
-from orchestrator._local import LocalProcessRuntime
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._episode.agentcheck import contract_checks
+from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._runtimes.local import LocalProcessRuntime
 from schemas import EpisodeStatus, Limits
 
 AGENT = Path(__file__).resolve().parents[2] / "examples" / "sanity_agent" / "agent.py"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from prometheus_client.parser import text_string_to_metric_families
 
-from orchestrator._metrics import CampaignMetrics
+from orchestrator._campaign.metrics import CampaignMetrics
 from schemas import CampaignSpec, EpisodeStatus
 
 SPEC = CampaignSpec.model_validate({

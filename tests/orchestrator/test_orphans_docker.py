@@ -16,9 +16,9 @@ from typing import Any
 import pytest
 from test_campaign_helpers import build_campaign_images
 
-from orchestrator._docker import DockerRuntime
-from orchestrator._reaper import HEARTBEAT_LABEL, reap_stale
-from orchestrator._runtime import AgentLaunch
+from orchestrator._runtimes.docker import DockerRuntime
+from orchestrator._runtimes.interface import AgentLaunch
+from orchestrator._runtimes.reaper import HEARTBEAT_LABEL, reap_stale
 from schemas import Limits
 
 pytestmark = [pytest.mark.docker]

@@ -16,8 +16,8 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from orchestrator._local import LocalProcessRuntime, local_agents
-from orchestrator._runtime import AgentLaunch
+from orchestrator._runtimes.interface import AgentLaunch
+from orchestrator._runtimes.local import LocalProcessRuntime, local_agents
 from orchestrator.cli import app
 from schemas import Limits
 
@@ -26,8 +26,8 @@ SLEEPER = f"{sys.executable} -c 'import time; time.sleep(600)'"
 WORKER = """
 import sys
 from pathlib import Path
-from orchestrator._local import LocalProcessRuntime
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._runtimes.local import LocalProcessRuntime
+from orchestrator._episode.worker import EpisodeSpec, run_episode
 from schemas import Limits
 run_episode(EpisodeSpec(track="sanity", image=sys.argv[1], seed=1, runs_dir=Path(sys.argv[2]),
                         episode=sys.argv[3], limits=Limits(startup_s=600)),

@@ -21,9 +21,9 @@ from typing import Any
 import pytest
 from typer.testing import CliRunner
 
-from orchestrator._campaign import load_campaign, store_path
-from orchestrator._report import render
-from orchestrator._store import EpisodeKey, ResultsStore
+from orchestrator._campaign.spec import load_campaign, store_path
+from orchestrator._results.score_card import render
+from orchestrator._results.store import EpisodeKey, ResultsStore
 from orchestrator.cli import app
 from plugins import load_track
 from schemas import (
@@ -227,8 +227,8 @@ def test_quarantine_lines_agree_with_the_campaigns_retries(board: Path) -> None:
 def test_every_example_agent_is_in_its_tracks_demo() -> None:
     """Adding a baseline to the demo is adding its image to the demo file: this keeps
     the files in step with examples/ (every example agent of a track is in its demo)."""
-    from orchestrator._demo import demo_files
-    from orchestrator._images import example_agents
+    from orchestrator._images.build import example_agents
+    from orchestrator.cli.demo import demo_files
 
     files = demo_files()
     assert set(files) == {"sanity", "track1", "track2"}
@@ -243,7 +243,7 @@ def test_every_example_agent_is_in_its_tracks_demo() -> None:
 
 
 def test_the_contract_check_names_the_files_problem_once() -> None:
-    from orchestrator._agentcheck import contract_checks
+    from orchestrator._episode.agentcheck import contract_checks
 
     plugin = load_track("sanity")
     _, checks = plugin.verify_files({"world_model.json": b'{"rooms": 3}',

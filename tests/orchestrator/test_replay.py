@@ -9,9 +9,9 @@ from pathlib import Path
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from orchestrator._local import LocalProcessRuntime
-from orchestrator._replay import replay
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._episode.replay import replay
+from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._runtimes.local import LocalProcessRuntime
 from schemas import EpisodeStatus
 from simhost._host import HostConfig
 

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from orchestrator._cli_common import ExitCode
-from orchestrator.cli import _episode_exit, app
+from orchestrator.cli.common import ExitCode
+from orchestrator.cli.main import _episode_exit, app
 from schemas import EpisodeResult, EpisodeStats, EpisodeStatus, ScoreCard
 
 REPO = Path(__file__).resolve().parents[2]

@@ -14,8 +14,8 @@ from typing import Any
 
 import pytest
 
-from orchestrator._docker import DockerRuntime
-from orchestrator._local import LocalProcessRuntime
+from orchestrator._runtimes.docker import DockerRuntime
+from orchestrator._runtimes.local import LocalProcessRuntime
 from orchestrator.conformance import (
     PROBE_SCRIPT,
     RuntimeConformance,
@@ -38,7 +38,7 @@ class TestLocalProcessRuntime(RuntimeConformance):
 
 @pytest.fixture(scope="module")
 def probe_image_built(docker_engine: Any, images: dict[str, str]) -> str:
-    from orchestrator._images import build_folder
+    from orchestrator._images.build import build_folder
 
     with tempfile.TemporaryDirectory() as tmp:
         return build_folder(docker_engine, probe_build_context(Path(tmp) / "probe"),

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator._seeds import (
+from orchestrator._campaign.seeds import (
     SeedError,
     check_reveal,
     commitment,

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator._store import (
+from orchestrator._results.store import (
     EpisodeKey,
     ResultsStore,
     StoreDamaged,

@@ -11,8 +11,8 @@ from typing import Any
 import pytest
 from mcap.reader import make_reader
 
-from orchestrator._docker import DockerRuntime
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._runtimes.docker import DockerRuntime
 from plugins import load_track
 from schemas import EpisodeStatus, Limits, LogRecord, WorldModel, parse_json, parse_jsonl
 

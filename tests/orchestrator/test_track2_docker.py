@@ -16,7 +16,7 @@ import pytest
 from _support import RecordingRuntime  # tests/orchestrator/_support.py
 from mcap.reader import make_reader
 
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._episode.worker import EpisodeSpec, run_episode
 from schemas import EpisodeResult, EpisodeStatus, Limits
 
 pytestmark = [pytest.mark.docker]
@@ -32,7 +32,7 @@ def track2_images(docker_engine: Any) -> dict[str, str]:
     """The agent base and the Track 2 baselines, built offline (only what is needed here, so
     that another example's build does not hold these tests back). The task-model image is
     built FROM the demo parser's: its hash covers that one's, so it is rebuilt with it."""
-    from orchestrator._images import build_agent_base, build_folder
+    from orchestrator._images.build import build_agent_base, build_folder
 
     build_agent_base(docker_engine, say=lambda m: None)
     return {name: build_folder(docker_engine, EXAMPLES / f"track2_{name}",

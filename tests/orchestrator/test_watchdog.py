@@ -16,8 +16,8 @@ from typing import Any
 import pytest
 
 import plugins
-from orchestrator._local import LocalProcessRuntime
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._runtimes.local import LocalProcessRuntime
 from schemas import EpisodeStatus, Limits
 
 AGENT = Path(__file__).resolve().parents[2] / "examples" / "sanity_agent" / "agent.py"

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator._images import ImageBuildError, _run
-from orchestrator._wheel import WheelError, build_wheel
+from orchestrator._images.build import ImageBuildError, _run
+from orchestrator._images.wheel import WheelError, build_wheel
 
 REPO = Path(__file__).resolve().parents[2]
 

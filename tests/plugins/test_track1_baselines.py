@@ -21,8 +21,8 @@ from typing import Any
 
 import pytest
 
-from orchestrator._local import LocalProcessRuntime
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._runtimes.local import LocalProcessRuntime
 from schemas import EpisodeResult, EpisodeStatus, Limits
 
 ROOT = Path(__file__).resolve().parents[2]

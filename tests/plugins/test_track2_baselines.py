@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator._local import LocalProcessRuntime
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._runtimes.local import LocalProcessRuntime
 from plugins import load_track
 from schemas import EpisodeResult, EpisodeStatus, Limits, TaskModel, load_json
 

@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 from mcap.reader import make_reader
 
-from orchestrator._local import LocalProcessRuntime
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._runtimes.local import LocalProcessRuntime
 from schemas import EpisodeStatus
 from simhost._mcap import segmentation_colours
 

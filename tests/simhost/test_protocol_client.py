@@ -14,8 +14,8 @@ import tempfile
 import textwrap
 from pathlib import Path
 
-from orchestrator._local import LocalProcessRuntime
-from orchestrator._worker import EpisodeSpec, run_episode
+from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._runtimes.local import LocalProcessRuntime
 from schemas import EpisodeStatus
 
 CLIENT = Path(__file__).resolve().parents[2] / "examples" / "protocol_client" / "agent.py"

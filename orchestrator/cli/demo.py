@@ -24,7 +24,7 @@ from rich.console import Console
 
 from orchestrator._errors import UsageError
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 DEMOS = REPO / "examples" / "campaigns"
 
 
@@ -52,7 +52,7 @@ def _load(path: Path, output: Path | None) -> Any:
 
     import yaml
 
-    from orchestrator._campaign import check_campaign, load_campaign
+    from orchestrator._campaign.spec import check_campaign, load_campaign
     from schemas import CampaignSpec, SchemaError, parse_json
 
     if output is None:
@@ -85,7 +85,7 @@ def _write_spec(spec: Any, path: Path) -> None:
 
 def _as_local(spec: Any) -> Any:
     """The same campaign with the example agents as local processes (no sandbox)."""
-    from orchestrator._images import example_agents
+    from orchestrator._images.build import example_agents
 
     folders = example_agents()
     python = sys.executable or "python3"
@@ -98,13 +98,13 @@ def _as_local(spec: Any) -> Any:
 def _with_images(spec: Any, console: Console) -> Any:
     """Builds the example images the campaign names (offline); drops, saying so, a
     submission whose image does not build or is neither an example nor loaded here."""
-    from orchestrator._docker import docker_client
-    from orchestrator._images import (
+    from orchestrator._images.build import (
         ImageBuildError,
         build_agent_base,
         build_folder,
         example_agents,
     )
+    from orchestrator._runtimes.docker import docker_client
 
     client = docker_client()
     folders = example_agents()
@@ -139,17 +139,17 @@ def run_demo(*, runtime: str = "auto", tracks: list[str] | None = None,
     130 when cancelled). ``console``: progress and notes; leaderboards go to stdout."""
     import os
 
-    from orchestrator._campaign import CampaignOptions
-    from orchestrator._campaign_cli import _print_leaderboard, where_results
-    from orchestrator._cli_common import ExitCode
-    from orchestrator._driver import run_campaign
+    from orchestrator._campaign.driver import run_campaign
+    from orchestrator._campaign.spec import CampaignOptions
+    from orchestrator.cli.campaign import _print_leaderboard, where_results
+    from orchestrator.cli.common import ExitCode
 
     console = console or Console(stderr=True)
     files = demo_files(tracks)
     if not files:
         raise UsageError(f"no demo campaign files in {DEMOS} for the installed tracks")
     if runtime == "auto":
-        from orchestrator._engine import docker_answers
+        from orchestrator._runtimes.engine import docker_answers
 
         runtime = "docker" if docker_answers() else "local"
         if runtime == "local":

@@ -1,6 +1,6 @@
 """The campaign driver: submit, stream results, commit, retry, cancel, fail cleanly.
 
-``run_campaign`` (re-exported by ``orchestrator._campaign``) takes the campaign's driver
+``run_campaign`` (re-exported by ``orchestrator._campaign.spec``) takes the campaign's driver
 lock and runs a ``Driver``. What it guarantees under faults (README, "Faults"):
 
 * every result is committed once, at once, before anything else is done with it;
@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from orchestrator._campaign import (
+from orchestrator._campaign.spec import (
     EXIT_CLUSTER,
     EXIT_STORE,
     CampaignOptions,
@@ -41,7 +41,7 @@ from orchestrator._campaign import (
     sigterm_as_interrupt,
     store_path,
 )
-from orchestrator._store import REBUILD, StoreDamaged, StoreError
+from orchestrator._results.store import REBUILD, StoreDamaged, StoreError
 from schemas import CampaignSpec, EpisodeResult
 
 log = logging.getLogger("eagc.campaign")
@@ -72,7 +72,7 @@ def run_campaign(spec: CampaignSpec, options: CampaignOptions | None = None, *,
 
 def check_store_against_events(store: Any, folder: Path, campaign: str) -> None:
     """StoreDamaged if ``events.jsonl`` names committed episodes the store lacks."""
-    from orchestrator._rebuild import committed_episodes, read_events
+    from orchestrator._campaign.rebuild import committed_episodes, read_events
 
     named = committed_episodes(read_events(folder / "events.jsonl"))
     if not named:
@@ -92,8 +92,8 @@ class Driver:
     def __init__(self, spec: CampaignSpec, options: CampaignOptions, *, console: Any) -> None:
         from rich.console import Console
 
-        from orchestrator._metrics import CampaignMetrics
-        from orchestrator._store import ResultsStore
+        from orchestrator._campaign.metrics import CampaignMetrics
+        from orchestrator._results.store import ResultsStore
 
         self.spec, self.options = spec, options
         self.name = spec.name
@@ -128,8 +128,8 @@ class Driver:
 
     # ------------------------------------------------------------------ run
     def run(self) -> CampaignReport:
-        from orchestrator._fanout import pin_images
-        from orchestrator._seeds import commitment, load_secret, seed_list
+        from orchestrator._campaign.fanout import pin_images
+        from orchestrator._campaign.seeds import commitment, load_secret, seed_list
 
         started = time.time()
         secret = load_secret(self.spec)
@@ -165,7 +165,7 @@ class Driver:
         import ray
         from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
-        from orchestrator._fanout import ProgressBoard, cleanup_nodes
+        from orchestrator._campaign.fanout import ProgressBoard, cleanup_nodes
 
         self.watch = ClusterWatch(ray.get_runtime_context().gcs_address,
                                   self.options.cluster_patience_s)
@@ -215,8 +215,8 @@ class Driver:
         return progress, bar
 
     def _submit(self, key: Any, retry: int) -> None:
-        from orchestrator._fanout import EpisodeJob, code_version, submit
-        from orchestrator._worker import new_episode_id
+        from orchestrator._campaign.fanout import EpisodeJob, code_version, submit
+        from orchestrator._episode.worker import new_episode_id
 
         pin = self.pinned[key.submission]
         split = next(s for s in self.spec.splits if s.name == key.split)
@@ -266,7 +266,7 @@ class Driver:
             return
         if not dead:
             return
-        from orchestrator._store import EpisodeKey
+        from orchestrator._results.store import EpisodeKey
 
         for ref, job in list(self.pending.items()):
             node = self.running.get(job.episode, {}).get("node")
@@ -283,7 +283,7 @@ class Driver:
             message = f"NodeDiedError: the node running the episode ({node[:12]}) was lost"
             try:
                 # No cleanup through Ray: the node cannot be reached. Its containers lose
-                # their heartbeat with its workers and are reaped (orchestrator._reaper).
+                # their heartbeat with its workers and are reaped (orchestrator._runtimes.reaper).
                 self._record(job, key, where, None, node, True, message, reach=False)
             except StoreError:
                 self.metrics.store_error()
@@ -292,7 +292,7 @@ class Driver:
     def _drain(self) -> None:
         import ray
 
-        from orchestrator._fanout import ProgressBoard
+        from orchestrator._campaign.fanout import ProgressBoard
 
         try:
             events = ray.get(self.board.drain.remote(), timeout=10)
@@ -317,7 +317,7 @@ class Driver:
     def _finish(self, ref: Any) -> None:
         import ray
 
-        from orchestrator._store import EpisodeKey
+        from orchestrator._results.store import EpisodeKey
 
         job = self.pending.pop(ref)
         self.running.pop(job.episode, None)
@@ -358,7 +358,7 @@ class Driver:
 
     def _record(self, job: Any, key: Any, where: dict[str, Any], result: EpisodeResult | None,
                 node: str | None, crashed: bool, message: str, *, reach: bool = True) -> None:
-        from orchestrator._fanout import cleanup_nodes
+        from orchestrator._campaign.fanout import cleanup_nodes
 
         if result is not None and result.status.failure_kind != "infra":
             t = time.perf_counter()
@@ -411,7 +411,7 @@ class Driver:
     def _cancel(self) -> None:
         import ray
 
-        from orchestrator._fanout import cleanup_nodes
+        from orchestrator._campaign.fanout import cleanup_nodes
 
         self.cancelling = True
         self.report.cancelled = True
@@ -452,7 +452,7 @@ class Driver:
 
     def _fail(self, fault: StoreError | ClusterLost) -> None:
         """The store or the cluster failed: the cancel path, then DriverFailure."""
-        from orchestrator._fanout import cleanup_here
+        from orchestrator._campaign.fanout import cleanup_here
 
         self.broken = fault
         lost = isinstance(fault, ClusterLost)

@@ -19,7 +19,7 @@ of a campaign costs the same at 10 rows as at 100,000 (``tests/benchmarks/bench_
 Every SQLite failure comes out as a ``StoreError``: ``StoreDamaged`` for a file that is not a
 sound store, ``StoreWriteError`` for a write that did not happen (a full disk). Either way
 what was committed before stays, and ``eagc campaign rebuild-store`` rebuilds a campaign's
-rows from its episode folders (``orchestrator._rebuild``).
+rows from its episode folders (``orchestrator._campaign.rebuild``).
 """
 
 from __future__ import annotations

@@ -16,8 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from orchestrator._errors import UsageError
-from orchestrator._leaderboard import Leaderboard, Row, held_back
-from orchestrator._report import file_problem
+from orchestrator._results.leaderboard import Leaderboard, Row, held_back
+from orchestrator._results.score_card import file_problem
 from schemas import CampaignSpec, EpisodeResult
 
 #: Lines of the agent's own output shown per failed episode (JSON keeps what is stored).
@@ -62,7 +62,7 @@ class TeamReport:
         }, indent=2)
 
     def to_text(self, limit: int | None = None, tail: int = TAIL_LINES) -> str:
-        from orchestrator._boardtext import TextColumn, table_lines, width, wrapped
+        from orchestrator._results.text import TextColumn, table_lines, width, wrapped
 
         limit = limit or width()
         final = self.row.values.get("final")

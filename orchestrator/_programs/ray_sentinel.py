@@ -1,8 +1,8 @@
 """The embedded Ray's sentinel: what a killed driver leaves of its Ray goes with it.
 
-    python _raysentinel.py DRIVER_PID TEMP_DIR
+    python ray_sentinel.py DRIVER_PID TEMP_DIR
 
-A driver that starts an embedded Ray (``orchestrator._campaign.ray_connection``) gives it a
+A driver that starts an embedded Ray (``orchestrator._campaign.spec.ray_connection``) gives it a
 temp dir of its own and starts this sentinel in a session of its own. When the driver ends
 cleanly it shuts Ray down and removes the dir itself, and the sentinel finds nothing to do.
 When the driver is killed (SIGKILL, OOM), Ray's GCS and raylet follow it, but its dashboard

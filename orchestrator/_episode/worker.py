@@ -12,7 +12,7 @@ Episode folder (organizer side; the agent sees only ``sock/``, ``output/`` and `
     <runs>/<episode>/output/             mounted at /output (size-capped tmpfs when root)
     <runs>/<episode>/input/              mounted read-only at /input, when the track has inputs
     <runs>/<episode>/host/               episode.mcap, result.json, snapshots/, agent.log
-    <runs>/<episode>/heartbeat           touched while the episode runs (orchestrator._reaper)
+    <runs>/<episode>/heartbeat           touched while the episode runs (_runtimes.reaper)
 
 The episode folder is private (0700): its MCAP log holds the hidden scenario. The agent's
 mounts are bind mounts of its subfolders, which the engine resolves as root.
@@ -41,15 +41,15 @@ from typing import Any
 
 import numpy as np
 
-from orchestrator._collect import collect, mount_output, unmount_output
-from orchestrator._cpus import placed
-from orchestrator._reaper import Heartbeat, reap_here
-from orchestrator._runtime import (
+from orchestrator._episode.collect import collect, mount_output, unmount_output
+from orchestrator._runtimes.cpus import placed
+from orchestrator._runtimes.interface import (
     AgentHandle,
     AgentLaunch,
     AgentRuntime,
     AgentStartError,
 )
+from orchestrator._runtimes.reaper import Heartbeat, reap_here
 from plugins import Scenario, ScoringInput, TrackPlugin, load_track
 from schemas import (
     CONTAINER,

@@ -146,7 +146,7 @@ def store_path(spec: CampaignSpec) -> Path:
 
 def plan(spec: CampaignSpec) -> list[Any]:
     """Every episode key, interleaved: each submission's episode i of a split is adjacent."""
-    from orchestrator._store import EpisodeKey
+    from orchestrator._results.store import EpisodeKey
 
     return [EpisodeKey(sub.team, split.name, i)
             for split in spec.splits for i in range(split.episodes)
@@ -200,7 +200,7 @@ class Events:
     def write(self, kind: str, **data: Any) -> None:
         """Appends one event; StoreWriteError if it could not be written (a full disk):
         ``rebuild-store`` needs these lines as much as the store needs its rows."""
-        from orchestrator._store import StoreWriteError
+        from orchestrator._results.store import StoreWriteError
 
         try:
             self._f.write(json.dumps({"event": kind, "at": time.time(), **data}) + "\n")
@@ -305,14 +305,14 @@ def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[Non
     The embedded Ray is always a new cluster of its own (``address="local"``: never one
     that ``ray start`` left on the machine) in its own temp dir under ``$RAY_TMPDIR`` (or
     /tmp), removed when the campaign ends; should the driver be killed, a sentinel process
-    (``orchestrator._raysentinel``) ends what is left of that Ray and removes the dir.
+    (``orchestrator._programs.ray_sentinel``) ends what is left of that Ray and removes the dir.
     """
     import shutil
     import tempfile
 
     import ray
 
-    from orchestrator import _raysentinel as raysentinel
+    from orchestrator._programs import ray_sentinel as raysentinel
 
     owned = not ray.is_initialized()
     temp: str | None = None

@@ -15,9 +15,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from orchestrator._engine import docker_client
-from orchestrator._reaper import HEARTBEAT_LABEL, start_watcher
-from orchestrator._runtime import (
+from orchestrator._runtimes.engine import docker_client
+from orchestrator._runtimes.interface import (
     LABEL_PREFIX,
     AgentHandle,
     AgentLaunch,
@@ -26,6 +25,7 @@ from orchestrator._runtime import (
     InfraError,
     sample_interval,
 )
+from orchestrator._runtimes.reaper import HEARTBEAT_LABEL, start_watcher
 from schemas import CONTAINER, ContainerExit
 
 log = logging.getLogger("eagc.docker")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from orchestrator._report import file_problem
+from orchestrator._results.score_card import file_problem
 from schemas import EpisodeResult, EpisodeStatus
 
 

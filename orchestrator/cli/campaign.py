@@ -1,8 +1,8 @@
 """``eagc campaign …``: run, leaderboard, commit, reveal, status.
 
 Mount with ``app.add_typer(campaign_app, name="campaign")``; run standalone as
-``python -m orchestrator._campaign_cli``. Errors end in one line with the exit codes of
-``orchestrator._cli_common``. ``eagc demo`` lives in ``orchestrator._demo``.
+``python -m orchestrator.cli.campaign``. Errors end in one line with the exit codes of
+``orchestrator.cli.common``. ``eagc demo`` lives in ``orchestrator.cli.demo``.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from orchestrator._cli_common import EXIT_CODES_HELP, ExitCode, OneLineErrors
+from orchestrator.cli.common import EXIT_CODES_HELP, ExitCode, OneLineErrors
 
 campaign_app = typer.Typer(
     cls=OneLineErrors,
@@ -50,9 +50,9 @@ def _driver_failures() -> Iterator[None]:
     import os
     import sys
 
-    from orchestrator._campaign import EXIT_STORE, DriverFailure
-    from orchestrator._cli_common import say_error
-    from orchestrator._store import StoreError
+    from orchestrator._campaign.spec import EXIT_STORE, DriverFailure
+    from orchestrator._results.store import StoreError
+    from orchestrator.cli.common import say_error
 
     try:
         yield
@@ -69,15 +69,15 @@ def _driver_failures() -> Iterator[None]:
 
 
 def _load(path: Path) -> Any:
-    from orchestrator._campaign import load_campaign
+    from orchestrator._campaign.spec import load_campaign
 
     with _errors():
         return load_campaign(path)
 
 
 def _store(spec: Any) -> Any:
-    from orchestrator._campaign import store_path
-    from orchestrator._store import ResultsStore
+    from orchestrator._campaign.spec import store_path
+    from orchestrator._results.store import ResultsStore
 
     path = store_path(spec)
     if not path.exists():
@@ -89,8 +89,8 @@ def _store(spec: Any) -> Any:
 
 def _print_leaderboard(spec: Any, fmt: str = "table", output: Path | None = None,
                        team: str | None = None) -> None:
-    from orchestrator._leaderboard import build_leaderboard
-    from orchestrator._teamreport import team_report
+    from orchestrator._results.leaderboard import build_leaderboard
+    from orchestrator._results.team_report import team_report
 
     with _store(spec) as store:
         board = build_leaderboard(spec, store)
@@ -108,7 +108,7 @@ def _print_leaderboard(spec: Any, fmt: str = "table", output: Path | None = None
 
 def where_results(spec: Any, source: Path | None) -> list[str]:
     """Where a campaign's results are, and how to see them again."""
-    from orchestrator._campaign import campaign_dir, store_path
+    from orchestrator._campaign.spec import campaign_dir, store_path
 
     again = f"eagc leaderboard {source}" if source else "eagc leaderboard CAMPAIGN.yaml"
     return [f"results of {spec.name}: {store_path(spec)} (SQLite, one row per episode)",
@@ -133,8 +133,8 @@ def run_cmd(
     progress: Annotated[bool, typer.Option(help="Show the progress bar.")] = True,
 ) -> None:
     """Run a campaign, or resume it: only episodes missing from the store are run."""
-    from orchestrator._campaign import CampaignOptions
-    from orchestrator._driver import run_campaign
+    from orchestrator._campaign.driver import run_campaign
+    from orchestrator._campaign.spec import CampaignOptions
 
     spec = _load(campaign)
     options = CampaignOptions(address=address, workers=workers, metrics_port=metrics_port,
@@ -158,7 +158,7 @@ def run_cmd(
 def rebuild_store_cmd(campaign: CampaignArg) -> None:
     """Rebuild (or complete) the campaign's results in the store from its episode folders
     (each one's result.json) and events.jsonl; a damaged store file is moved aside first."""
-    from orchestrator._rebuild import rebuild
+    from orchestrator._campaign.rebuild import rebuild
 
     spec = _load(campaign)
     with _errors():
@@ -196,7 +196,7 @@ def leaderboard_cmd(
 
 
 def _seeds(spec: Any) -> tuple[Any, list[Any]]:
-    from orchestrator._seeds import load_secret, seed_list
+    from orchestrator._campaign.seeds import load_secret, seed_list
 
     with _errors():
         secret = load_secret(spec)
@@ -208,7 +208,7 @@ def _seeds(spec: Any) -> tuple[Any, list[Any]]:
 @campaign_app.command("commit")
 def commit_cmd(campaign: CampaignArg) -> None:
     """Print the seed commitment (SHA-256 of the seed list) to publish before the campaign."""
-    from orchestrator._seeds import commitment
+    from orchestrator._campaign.seeds import commitment
 
     spec = _load(campaign)
     secret, seeds = _seeds(spec)
@@ -225,8 +225,8 @@ def reveal_cmd(
         help="Check a published seed list (no secret needed) instead of computing it.")] = None,
 ) -> None:
     """Print the seed list and check it against the published commitment."""
-    from orchestrator._campaign import store_path
-    from orchestrator._seeds import check_reveal, revealed_text
+    from orchestrator._campaign.seeds import check_reveal, revealed_text
+    from orchestrator._campaign.spec import store_path
 
     spec = _load(campaign)
     if expect is None and store_path(spec).exists():
@@ -255,7 +255,7 @@ def reveal_cmd(
 @campaign_app.command("status")
 def status_cmd(campaign: CampaignArg) -> None:
     """Episodes planned, committed by status, quarantined, retried and missing."""
-    from orchestrator._campaign import plan
+    from orchestrator._campaign.spec import plan
 
     spec = _load(campaign)
     with _store(spec) as store:

@@ -1,6 +1,6 @@
-"""The episode watcher: one small process per Docker episode (``orchestrator._reaper``).
+"""The episode watcher: one small process per Docker episode (``orchestrator._runtimes.reaper``).
 
-    python _watcher.py CONTAINER HEARTBEAT DEADLINE STALE_S POLL_S
+    python watcher.py CONTAINER HEARTBEAT DEADLINE STALE_S POLL_S
 
 Forks, and the parent leaves at once (so the worker that started it waits for one
 interpreter start only, and the watcher is re-parented to init: neither a killed worker nor

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from orchestrator._runtime import InfraError
+from orchestrator._runtimes.interface import InfraError
 
 
 def docker_client() -> Any:

@@ -19,7 +19,7 @@ things bound it, each from outside the container:
   and exits as soon as the container is gone. This is what bounds a dead driver's
   containers when no worker is left: within ``STALE_S`` + ``POLL_S`` (about 35 s).
 
-The watcher is ``orchestrator/_watcher.py``, started by ``start_watcher``.
+The watcher is ``orchestrator/_programs/watcher.py``, started by ``start_watcher``.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from orchestrator._runtime import LABEL_PREFIX
+from orchestrator._runtimes.interface import LABEL_PREFIX
 
 log = logging.getLogger("eagc.reaper")
 
@@ -119,7 +119,7 @@ reaped_here = 0
 def reap_here() -> int:
     """``reap_stale`` on this node's engine; 0 if there is none."""
     global reaped_here
-    from orchestrator._engine import docker_client
+    from orchestrator._runtimes.engine import docker_client
 
     try:
         n = len(reap_stale(docker_client()))

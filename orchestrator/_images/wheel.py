@@ -118,7 +118,7 @@ def build_wheel(root: Path, dest: Path) -> Path:
         f"tool.setuptools.{k}" for k in set(setuptools) - SETUPTOOLS_KEYS)
     if "dynamic" in project or unknown:
         raise WheelError("pyproject.toml sets what the eagc wheel builder does not handle: "
-                         f"{', '.join(unknown or ['dynamic'])} (orchestrator/_wheel.py)")
+                         f"{', '.join(unknown or ['dynamic'])} (orchestrator/_images/wheel.py)")
     find = setuptools.get("packages", {}).get("find", {})
     packages = _packages(root, find.get("include", ["*"]))
     if not packages:

@@ -29,7 +29,7 @@ from collections import deque
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from orchestrator._runtime import (
+from orchestrator._runtimes.interface import (
     AgentHandle,
     AgentLaunch,
     AgentRuntime,

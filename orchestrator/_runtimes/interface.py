@@ -49,7 +49,7 @@ class AgentLaunch:
     labels: Mapping[str, str] = field(default_factory=dict)
     #: The cores the agent runs on ("1,2"), apart from its sim host's; None: anywhere.
     cpuset: str | None = None
-    #: The episode's heartbeat file (``orchestrator._reaper``): named by the agent's label
+    #: The episode's heartbeat file (``orchestrator._runtimes.reaper``): named by the agent's label
     #: so that a reaper can tell a dead episode's agent from a live one.
     heartbeat: Path | None = None
     #: Hard deadline, seconds after the start: the runtime ends the agent then, from outside,

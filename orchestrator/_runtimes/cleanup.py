@@ -3,7 +3,7 @@
 Safe at any time, while other campaigns run:
 
 * without ``--campaign``, an agent (container or local process) is removed only when its
-  episode is dead: its heartbeat (``orchestrator._reaper``) is readable here and stale, or,
+  episode is dead: its heartbeat (``orchestrator._runtimes.reaper``) is readable here and stale, or,
   for a local agent of this machine, its episode folder is gone. A container without a
   heartbeat this machine can read is never touched;
 * ``--campaign NAME`` removes every agent of that campaign (its driver must be stopped);
@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from orchestrator._reaper import HEARTBEAT_LABEL, STALE_S, heartbeat_age
-from orchestrator._runtime import LABEL_PREFIX
+from orchestrator._runtimes.interface import LABEL_PREFIX
+from orchestrator._runtimes.reaper import HEARTBEAT_LABEL, STALE_S, heartbeat_age
 
 
 @dataclass
@@ -82,12 +82,12 @@ def killed_attempts(runs: Path, *, keep_logs: bool = False) -> list[Path]:
 def cleanup(*, campaign: str | None = None, runs: Path | None = None, dry_run: bool = False,
             keep_logs: bool = False, client: Any = None) -> CleanupPlan:
     """Removes (or, ``dry_run``, lists) what dead episodes left; see the module doc."""
-    from orchestrator._local import kill_local_agents, local_agents
+    from orchestrator._runtimes.local import kill_local_agents, local_agents
 
     plan = CleanupPlan()
     # Containers.
     if client is None:
-        from orchestrator._docker import docker_client
+        from orchestrator._runtimes.docker import docker_client
 
         try:
             client = docker_client()

@@ -1,7 +1,7 @@
 """The ``eagc`` command line.
 
 Every command ends in one line when something is wrong, never a traceback, with the exit
-codes of ``orchestrator._cli_common`` (shown by ``eagc --help`` and in the README).
+codes of ``orchestrator.cli.common`` (shown by ``eagc --help`` and in the README).
 """
 
 from __future__ import annotations
@@ -14,8 +14,9 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
-from orchestrator._campaign_cli import campaign_app, leaderboard_cmd, status_cmd
-from orchestrator._cli_common import (
+from orchestrator._errors import UsageError
+from orchestrator.cli.campaign import campaign_app, leaderboard_cmd, status_cmd
+from orchestrator.cli.common import (
     EXIT_CODES_HELP,
     SEED_RANGE,
     ExitCode,
@@ -26,7 +27,6 @@ from orchestrator._cli_common import (
     episode_log,
     limits_of,
 )
-from orchestrator._errors import UsageError
 
 app = typer.Typer(
     cls=OneLineErrors,
@@ -60,7 +60,7 @@ SeedOpt = Annotated[int, typer.Option(help="Scenario seed (public: for local tes
 
 def local_command(image: str) -> str:
     """What ``--runtime local`` runs for an example image: its folder's agent.py."""
-    from orchestrator._images import example_agents
+    from orchestrator._images.build import example_agents
 
     folder = example_agents().get(image)
     if folder is None:
@@ -70,12 +70,12 @@ def local_command(image: str) -> str:
 
 def _runtime(name: str):  # noqa: ANN202
     if name == "docker":
-        from orchestrator._docker import DockerRuntime
+        from orchestrator._runtimes.docker import DockerRuntime
 
         return DockerRuntime()
     if name != "local":
         raise UsageError(f"no runtime named {name!r}: docker, or local (development only)")
-    from orchestrator._local import WARNING, LocalProcessRuntime
+    from orchestrator._runtimes.local import WARNING, LocalProcessRuntime
 
     notes.print(f"[bold yellow]{WARNING}[/]")
     return LocalProcessRuntime(quiet=True)
@@ -90,8 +90,8 @@ def _episode_exit(result: Any) -> ExitCode:
 def _run_one(track: str, image: str, runtime: str, seed: int, split: str, time_scale: float,
              max_steps: int | None, memory_mb: int, cpus: float, runs_dir: Path,
              as_json: bool) -> int:
-    from orchestrator._report import print_result, where_line
-    from orchestrator._worker import EpisodeSpec, run_episode
+    from orchestrator._episode.worker import EpisodeSpec, run_episode
+    from orchestrator._results.score_card import print_result, where_line
 
     plugin = check_track(track)
     check_split(plugin, split)
@@ -147,7 +147,7 @@ def demo(
     local processes. Each ends with its leaderboard and where its results are. Run again:
     the stored results are shown, nothing is rerun.
     """
-    from orchestrator._demo import run_demo
+    from orchestrator.cli.demo import run_demo
 
     if runtime not in ("auto", "docker", "local"):
         raise UsageError(f"no runtime named {runtime!r}: auto, docker or local")
@@ -171,9 +171,9 @@ def test_agent(
     """Check your container against the contract: one real episode in the sandbox."""
     from rich.table import Table
 
-    from orchestrator._agentcheck import contract_checks
-    from orchestrator._report import print_result, where_line
-    from orchestrator._worker import EpisodeSpec, run_episode
+    from orchestrator._episode.agentcheck import contract_checks
+    from orchestrator._episode.worker import EpisodeSpec, run_episode
+    from orchestrator._results.score_card import print_result, where_line
 
     plugin = check_track(track)
     check_split(plugin, split)
@@ -203,7 +203,7 @@ def replay(
     verify: Annotated[bool, typer.Option(help="Check every recorded state bit for bit.")] = True,
 ) -> None:
     """Re-simulate an episode from its MCAP log and check it matches the live run."""
-    from orchestrator._replay import replay as do_replay
+    from orchestrator._episode.replay import replay as do_replay
 
     path = episode_log(episode)
     with notes.status(f"replaying {path}…"):
@@ -269,7 +269,7 @@ def picture(
 @images_app.command("build")
 def images_build(force: Annotated[bool, typer.Option(help="Rebuild everything.")] = False) -> None:
     """Build eagc/base, eagc/agent-base and the example agents, with no registry."""
-    from orchestrator._images import build_all
+    from orchestrator._images.build import build_all
 
     for tag in build_all(say=lambda m: console.print(m), force=force):
         console.print(f"[green]✓[/] {tag}")
@@ -287,7 +287,7 @@ def cleanup(
 ) -> None:
     """Remove what dead episodes left: agents whose episode's heartbeat went stale (never a
     running episode's), or all of one campaign's; with --runs, killed attempts' folders."""
-    from orchestrator._cleanup import cleanup as do_cleanup
+    from orchestrator._runtimes.cleanup import cleanup as do_cleanup
 
     plan = do_cleanup(campaign=campaign, runs=runs, dry_run=dry_run, keep_logs=keep_logs)
     verb = "would remove" if dry_run else "removed"

@@ -29,7 +29,7 @@ from typing import Any
 
 import ray
 
-from orchestrator._campaign import SLOT, CampaignError
+from orchestrator._campaign.spec import SLOT, CampaignError
 from schemas import CampaignSpec, Limits
 
 log = logging.getLogger("eagc.fanout")
@@ -39,7 +39,7 @@ _PACKAGES = ("orchestrator", "plugins", "schemas", "simhost")
 
 def code_root() -> Path:
     """The folder this installation's packages live in."""
-    return Path(__file__).resolve().parents[1]
+    return Path(__file__).resolve().parents[2]
 
 
 @functools.cache
@@ -120,7 +120,7 @@ def _ensure_image(client: Any, job: EpisodeJob) -> str:
     """The image to run on this node: the pinned ID, loaded from the archive if missing."""
     import docker
 
-    from orchestrator._runtime import InfraError
+    from orchestrator._runtimes.interface import InfraError
 
     if job.digest is None:
         return job.image
@@ -150,10 +150,10 @@ def _ensure_image(client: Any, job: EpisodeJob) -> str:
 
 def _runtime(job: EpisodeJob) -> Any:
     if job.runtime == "local":
-        from orchestrator._local import LocalProcessRuntime
+        from orchestrator._runtimes.local import LocalProcessRuntime
 
         return LocalProcessRuntime(quiet=True)
-    from orchestrator._docker import DockerRuntime
+    from orchestrator._runtimes.docker import DockerRuntime
 
     return DockerRuntime()
 
@@ -168,8 +168,8 @@ EPISODES_PER_WORKER = 50
 @ray.remote(max_retries=0, max_calls=EPISODES_PER_WORKER)
 def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
     """Runs one episode on whatever node Ray chose; never raises for agent faults."""
-    from orchestrator import _reaper
-    from orchestrator._worker import EpisodeSpec, run_episode
+    from orchestrator._episode.worker import EpisodeSpec, run_episode
+    from orchestrator._runtimes import reaper as _reaper
 
     node, host, pid = _node(), socket.gethostname(), os.getpid()
     if board is not None:
@@ -238,7 +238,7 @@ def _cleanup_task(labels: dict[str, str], runs_dir: str | None) -> list[str]:
 
 def cleanup_here(labels: Mapping[str, str], runs_dir: str | None) -> list[str]:
     """Removes this node's containers with ``labels`` (and stale output mounts)."""
-    from orchestrator._docker import DockerRuntime
+    from orchestrator._runtimes.docker import DockerRuntime
 
     removed: list[str] = []
     for _ in range(2):  # two nodes on one engine may race for the same container
@@ -284,7 +284,7 @@ def pin_images(spec: CampaignSpec, client: Any | None = None) -> dict[str, Pinne
         return {s.team: PinnedImage(s.team, s.image, None, None) for s in spec.submissions}
     import docker
 
-    from orchestrator._docker import docker_client
+    from orchestrator._runtimes.docker import docker_client
 
     client = client or docker_client()
     out = {}

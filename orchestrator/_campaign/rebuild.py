@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from orchestrator._store import (
+from orchestrator._results.store import (
     EpisodeKey,
     ResultsStore,
     StoreDamaged,
@@ -168,8 +168,8 @@ def rebuild_store(spec: CampaignSpec, folder: Path, store_file: Path, *, commitm
 
 def rebuild(spec: CampaignSpec) -> RebuildReport:
     """``eagc campaign rebuild-store``: ``rebuild_store`` at the campaign's own paths."""
-    from orchestrator._campaign import campaign_dir, plan, store_path
-    from orchestrator._seeds import commitment, load_secret, seed_list
+    from orchestrator._campaign.seeds import commitment, load_secret, seed_list
+    from orchestrator._campaign.spec import campaign_dir, plan, store_path
 
     seeds = seed_list(spec, load_secret(spec))
     return rebuild_store(spec, campaign_dir(spec), store_path(spec),

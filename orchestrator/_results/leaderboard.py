@@ -16,10 +16,10 @@ how often it was retried (as many times as the campaign's ``retries`` allows).
 ``team_report`` is one team's own view: its row and every one of its episodes (verdict,
 score, stage reached, limit hit, what was wrong with its files, the last lines its agent
 printed), and nothing of any other team. It is neutral about the hidden scenario: no score
-components, weights or scorer notes (``orchestrator._report``).
+components, weights or scorer notes (``orchestrator._results.score_card``).
 
 The text form fits ``$COLUMNS`` (80 by default) without cutting a name or a value
-(``orchestrator._boardtext``); the JSON form keeps ``rows[].team``, ``.episodes``,
+(``orchestrator._results.text``); the JSON form keeps ``rows[].team``, ``.episodes``,
 ``.planned`` and ``.values`` (``final`` on a 0–100 scale).
 """
 
@@ -130,7 +130,7 @@ class Leaderboard:
     def to_text(self, limit: int | None = None) -> str:
         """The table and the failed episodes as plain text within ``limit`` columns
         (default: ``$COLUMNS``, else the terminal's width, else 80)."""
-        from orchestrator._boardtext import TextColumn, layout, width
+        from orchestrator._results.text import TextColumn, layout, width
 
         limit = limit or width()
         key = [TextColumn("#", tuple(str(r.rank) for r in self.rows)),
@@ -167,7 +167,7 @@ def cell_text(v: float, fmt: str) -> str:
 
 def failure_lines(f: FailureLine, limit: int, *, with_team: bool = True) -> list[str]:
     """One failed episode in a few lines: who, which, how it ended, what happened."""
-    from orchestrator._boardtext import wrapped
+    from orchestrator._results.text import wrapped
 
     head = f"{f.split}/{f.index}  {f.status}"
     if with_team:

@@ -5,7 +5,7 @@
 - ``eagc/agent-base:latest``: the base plus the agent client (this repository's wheel and
   its three light dependencies: pydantic, eclipse-zenoh, numpy), installed from wheels
   downloaded on the host with ``pip install --no-index``; built with no network. The eagc
-  wheel is written by ``orchestrator._wheel`` (no build backend, no download: it works the
+  wheel is written by ``orchestrator._images.wheel`` (no build backend, no download: it works the
   same in a fresh venv, as root with the system Python, or offline).
 - example agents (``examples/*/Dockerfile``) and test containers built ``FROM`` it.
 
@@ -24,11 +24,11 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-from orchestrator._docker import docker_client
 from orchestrator._errors import OrchestratorError
+from orchestrator._runtimes.docker import docker_client
 from schemas import CONTAINER
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 BASE_IMAGE = "eagc/base:bookworm"
 AGENT_BASE_IMAGE = "eagc/agent-base:latest"
 HASH_LABEL = "eagc.build-hash"
@@ -133,9 +133,9 @@ def build_base(client: Any, say: Say = print, *, force: bool = False) -> str:
 
 
 def client_wheels(dest: Path) -> list[Path]:
-    """The eagc wheel (``orchestrator._wheel``: no build backend needed) and its light
+    """The eagc wheel (``orchestrator._images.wheel``: no build backend needed) and its light
     dependencies' wheels (downloaded by pip) in ``dest``; what the agent base installs."""
-    from orchestrator._wheel import WheelError, build_wheel
+    from orchestrator._images.wheel import WheelError, build_wheel
 
     try:
         build_wheel(REPO, dest)

@@ -4,7 +4,14 @@ Public API: ``TrackPlugin``, ``Scenario``, ``ScoringInput``, ``FileRule``, ``loa
 ``available_tracks``, ``PluginError``. The conformance suite is ``plugins.conformance``.
 """
 
-from plugins._base import Column, FileRule, Scenario, ScoringInput, TrackPlugin
+from plugins._base import (
+    Column,
+    FileRule,
+    Scenario,
+    ScoringInput,
+    TrackPlugin,
+    granted_budgets,
+)
 from plugins._errors import PluginError
 from plugins._registry import GROUP, available_tracks, load_track, validate_plugin
 from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
@@ -22,6 +29,7 @@ __all__ = [
     "TrackEpisode",
     "TrackPlugin",
     "available_tracks",
+    "granted_budgets",
     "load_track",
     "validate_plugin",
 ]

@@ -68,9 +68,14 @@ class ScoringInput:
     steps: int
     invalid_actions: int
     protocol_errors: int
-    #: Wall-clock budget each stage was granted (s, after the campaign's time scale);
-    #: empty when the caller does not say.
-    stage_budgets_s: Mapping[str, float] = field(default_factory=dict)
+    #: Wall-clock budget each stage was granted (s, after the campaign's time scale):
+    #: ``granted_budgets(plugin.stages(), time_scale)``.
+    stage_budgets_s: Mapping[str, float]
+
+
+def granted_budgets(stages: Sequence[StageSpec], time_scale: float = 1.0) -> dict[str, float]:
+    """Each stage's wall-clock budget as the sim host grants it (official × ``time_scale``)."""
+    return {s.name: s.budget_s * time_scale for s in stages}
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from plugins._base import Scenario, ScoringInput, TrackPlugin
+from plugins._base import Scenario, ScoringInput, TrackPlugin, granted_budgets
 from plugins._registry import available_tracks, load_track, validate_plugin
 from schemas import EndReason, FieldSpec, FileCheck, HostMessage, ScoreCard
 from schemas._result import EpisodeStatus
@@ -237,6 +237,7 @@ class TrackConformance:
             steps=0,
             invalid_actions=0,
             protocol_errors=0,
+            stage_budgets_s=granted_budgets(self.plugin.stages()),
         )
 
     def _example_files(self) -> dict[str, bytes]:

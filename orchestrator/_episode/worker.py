@@ -50,7 +50,7 @@ from orchestrator._runtimes.interface import (
     AgentStartError,
 )
 from orchestrator._runtimes.reaper import Heartbeat, reap_here
-from plugins import Scenario, ScoringInput, TrackPlugin, load_track
+from plugins import Scenario, ScoringInput, TrackPlugin, granted_budgets, load_track
 from schemas import (
     CONTAINER,
     ContainerExit,
@@ -381,6 +381,7 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
             protocol_errors=sum(
                 n for code, n in outcome.protocol_errors.items() if code != "invalid_action"
             ),
+            stage_budgets_s=granted_budgets(plugin.stages(), spec.limits.time_scale),
         ))
         if status.failure_kind == "agent":
             score = score.model_copy(update={"notes": (*score.notes, f"agent failure: {status}")})

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from orchestrator._episode.collect import collect
-from plugins import ScoringInput, load_track
+from plugins import ScoringInput, granted_budgets, load_track
 from plugins.track1 import Track1Episode
 from schemas import (
     ActionResult,
@@ -249,7 +249,8 @@ def run_agent(make_agent: Callable[[Track1Episode], Any], split: str, seed: int,
         card = plugin.score(ScoringInput(
             scenario=scenario, status=status, end_reason=env.end_reason,
             stages_reached=tuple(env.stages_reached), outcome=outcome, files=parsed,
-            snapshots=snaps, steps=env.steps, invalid_actions=env.invalid, protocol_errors=0))
+            snapshots=snaps, steps=env.steps, invalid_actions=env.invalid, protocol_errors=0,
+            stage_budgets_s=granted_budgets(plugin.stages())))
     episode.close()
     exc = outcome.get("exception") or {}
     return Played(split=split, seed=seed, card=card, status=status, end_reason=env.end_reason,

@@ -96,7 +96,7 @@ def _in_process(agent: str, split: str, seed: int, index: int) -> Any:
     """The oracle or the do-nothing agent, driving the episode as the host would."""
     import numpy as np
 
-    from plugins import ScoringInput, load_track
+    from plugins import ScoringInput, granted_budgets, load_track
     from plugins.track2 import Track2Scenario
     from plugins.track2._episode import DEMONSTRATION, EXECUTION, PARSING
     from schemas import EpisodeResult, EpisodeStats, EpisodeStatus, TaskModel
@@ -146,7 +146,8 @@ def _in_process(agent: str, split: str, seed: int, index: int) -> Any:
     card = plugin.score(ScoringInput(
         scenario=scenario, status=EpisodeStatus.COMPLETED, end_reason="completed",
         stages_reached=(DEMONSTRATION, PARSING, EXECUTION), outcome=outcome, files=files,
-        snapshots={}, steps=steps, invalid_actions=0, protocol_errors=0))
+        snapshots={}, steps=steps, invalid_actions=0, protocol_errors=0,
+        stage_budgets_s=granted_budgets(plugin.stages())))
     return EpisodeResult(
         episode=f"{agent}-{split}-{seed}", track="track2", split=split, image=agent,
         runtime="in-process", status=EpisodeStatus.COMPLETED, score=card,

@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from plugins import Scenario, ScoringInput, load_track
+from plugins import Scenario, ScoringInput, granted_budgets, load_track
 from plugins.track1 import GradedQuery, PlannedException, Query, Task, Track1Outcome, _score
 from plugins.track1._queries import grade, score_answer, truth_of
 from schemas import EpisodeResult, EpisodeStats, LogRecord, ScoreCard, WorldModel
@@ -244,7 +244,8 @@ def _input(o: Track1Outcome | dict, *, model: WorldModel | None,
         status=EpisodeStatus.COMPLETED, end_reason="completed",
         stages_reached=("exploration", "planning", "execution"), outcome=raw, files=files,
         snapshots={"exploration": {"world_model.json": model}} if model else {},
-        steps=steps, invalid_actions=invalid, protocol_errors=0)
+        steps=steps, invalid_actions=invalid, protocol_errors=0,
+        stage_budgets_s=granted_budgets(load_track("track1").stages()))
 
 
 def test_a_perfect_episode_without_exception_scores_one() -> None:

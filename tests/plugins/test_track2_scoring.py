@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from plugins import Scenario, ScoringInput, load_track
+from plugins import Scenario, ScoringInput, granted_budgets, load_track
 from plugins.track2 import WEIGHTS, Track2Scenario, model_parts, model_score
 from plugins.track2._scoring import MODEL_WEIGHTS, OFFICIAL_ADAPT_S, close
 from schemas import EpisodeResult, EpisodeStats, NamedItem, Precondition, ScoreCard, TaskModel
@@ -66,7 +66,8 @@ def score(s: Scenario, o: dict[str, Any], model: TaskModel | None = None, *,
     return TRACK.score(ScoringInput(
         scenario=s, status=EpisodeStatus.COMPLETED, end_reason="success", stages_reached=(),
         outcome=o, files=files, snapshots=snapshots or {}, steps=int(o.get("steps", 0)),
-        invalid_actions=invalid, protocol_errors=0, stage_budgets_s=budgets or {}))
+        invalid_actions=invalid, protocol_errors=0,
+        stage_budgets_s=budgets or granted_budgets(TRACK.stages())))
 
 
 def test_weights_are_equation_3() -> None:

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from orchestrator._runtimes.engine import managed_containers
 from orchestrator._runtimes.interface import LABEL_PREFIX
 from orchestrator._runtimes.reaper import HEARTBEAT_LABEL, STALE_S, heartbeat_age
 
@@ -97,7 +98,7 @@ def cleanup(*, campaign: str | None = None, runs: Path | None = None, dry_run: b
         filters = [f"{LABEL_PREFIX}.managed=true"]
         if campaign is not None:
             filters.append(f"{LABEL_PREFIX}.campaign={campaign}")
-        for c in client.containers.list(all=True, filters={"label": filters}):
+        for c in managed_containers(client, filters):
             if campaign is None and not _dead((c.labels or {}).get(HEARTBEAT_LABEL),
                                               local=False):
                 plan.kept_live += 1

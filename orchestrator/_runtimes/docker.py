@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from orchestrator._runtimes.engine import docker_client
+from orchestrator._runtimes.engine import docker_client, managed_containers
 from orchestrator._runtimes.interface import (
     LABEL_PREFIX,
     AgentHandle,
@@ -226,8 +226,13 @@ class DockerRuntime(AgentRuntime):
     def cleanup(self, labels: Mapping[str, str] | None = None) -> list[str]:
         filters = [f"{LABEL_PREFIX}.managed=true"]
         filters += [f"{LABEL_PREFIX}.{k}={v}" for k, v in (labels or {}).items()]
+        from docker.errors import NotFound
+
         removed = []
-        for c in self.client.containers.list(all=True, filters={"label": filters}):
-            c.remove(force=True)
+        for c in managed_containers(self.client, filters):
+            try:
+                c.remove(force=True)
+            except NotFound:  # removed by a watcher or reaper meanwhile
+                continue
             removed.append(c.name)
         return removed

@@ -1,6 +1,7 @@
-"""The Docker engine: one client, and whether one answers at all.
+"""The Docker engine: one client, whether one answers at all, and eagc's containers.
 
-Below both the runtime (``_docker``) and the reaper (``_reaper``), which each need a client.
+Below the runtime (``docker``), the reaper (``reaper``) and ``cleanup``, which each need a
+client and race each other (and the episode watcher) to remove containers.
 """
 
 from __future__ import annotations
@@ -23,6 +24,16 @@ def docker_client() -> Any:
             "`systemctl start docker`), or use --runtime local for development."
         ) from e
     return client
+
+
+def managed_containers(client: Any, labels: list[str]) -> list[Any]:
+    """Every container (running or not) carrying all of ``labels`` (``key=value``).
+
+    The engine lists ids, then the SDK inspects each: a container another process removes
+    in between (a watcher, a reaper on another node, ``eagc cleanup``) is left out instead
+    of raising ``NotFound``.
+    """
+    return client.containers.list(all=True, filters={"label": labels}, ignore_removed=True)
 
 
 def docker_answers() -> bool:

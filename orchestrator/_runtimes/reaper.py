@@ -34,6 +34,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from orchestrator._runtimes.engine import managed_containers
 from orchestrator._runtimes.interface import LABEL_PREFIX
 
 log = logging.getLogger("eagc.reaper")
@@ -96,7 +97,7 @@ def reap_stale(client: Any, *, stale_s: float = STALE_S) -> list[str]:
     stale; returns their names. Containers without a readable heartbeat are left alone."""
     removed = []
     now = time.time()
-    for c in client.containers.list(all=True, filters={"label": f"{LABEL_PREFIX}.managed=true"}):
+    for c in managed_containers(client, [f"{LABEL_PREFIX}.managed=true"]):
         path = (c.labels or {}).get(HEARTBEAT_LABEL)
         if not path:
             continue
@@ -132,11 +133,11 @@ def reap_here() -> int:
 
 # ---------------------------------------------------------------------------- watcher
 def start_watcher(container: str, heartbeat: Path, deadline: float) -> None:
-    """Starts the episode watcher (``_watcher.py``, run as a plain script: it imports
+    """Starts the episode watcher (``_programs/watcher.py``, run as a plain script: it imports
     nothing of eagc, so it costs one interpreter start), detached from this process: it
     forks once more and its parent leaves, so it is re-parented to init."""
     subprocess.run(
-        [sys.executable, str(Path(__file__).with_name("_watcher.py")), container,
+        [sys.executable, str(Path(__file__).parents[1] / "_programs" / "watcher.py"), container,
          str(heartbeat), repr(deadline), repr(STALE_S), repr(POLL_S)],
         check=False, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL, start_new_session=True, timeout=30)

@@ -13,6 +13,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import docker.errors
 import pytest
 from test_campaign_helpers import build_campaign_images
 
@@ -40,9 +41,12 @@ def campaign(docker_engine: Any) -> Iterator[str]:
     build_campaign_images(docker_engine, "waiting")
     name = "orph-" + os.urandom(4).hex()
     yield name
-    for c in docker_engine.containers.list(all=True,
+    for c in docker_engine.containers.list(all=True, ignore_removed=True,
                                            filters={"label": f"eagc.campaign={name}"}):
-        c.remove(force=True)
+        try:
+            c.remove(force=True)
+        except docker.errors.NotFound:  # the watcher or the reaper was quicker
+            pass
 
 
 def _sleeper(engine: Any, campaign: str, tag: str, heartbeat: str | None) -> Any:
@@ -126,3 +130,39 @@ def test_the_episode_watcher_bounds_a_container_without_its_worker(
     while time.time() < end and not _gone_within(docker_engine, handle.id, 0.5):
         os.utime(folder / "b" / "heartbeat")  # a live worker, but past the deadline
     assert _gone_within(docker_engine, handle.id, 1), "the hard deadline was not enforced"
+
+
+@pytest.mark.parametrize("remover", ["reap_stale", "DockerRuntime.cleanup", "eagc cleanup"])
+def test_a_container_removed_between_listing_and_inspection_is_skipped(
+        docker_engine: Any, campaign: str, remover: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The engine lists ids, then the SDK inspects each one. A container another process
+    removes in between (here: removed for real from inside that inspection) is skipped;
+    the other stale container still goes, and nothing raises ``NotFound``."""
+    from docker.models.containers import ContainerCollection
+
+    from orchestrator._runtimes.cleanup import cleanup
+
+    stale = Path(tempfile.mkdtemp(prefix="eagc-hb-", dir="/tmp")) / "heartbeat"
+    stale.touch()
+    os.utime(stale, (time.time() - 15, time.time() - 15))
+    victim = _sleeper(docker_engine, campaign, "victim", str(stale))
+    other = _sleeper(docker_engine, campaign, "other", str(stale))
+    real_get = ContainerCollection.get
+    raced: list[str] = []
+
+    def get(self: Any, container_id: str) -> Any:
+        if container_id in (victim.id, victim.name) and not raced:
+            raced.append(container_id)
+            docker_engine.api.remove_container(victim.id, force=True)
+        return real_get(self, container_id)
+
+    monkeypatch.setattr(ContainerCollection, "get", get)
+    if remover == "reap_stale":
+        removed = reap_stale(docker_engine, stale_s=STALE)
+    elif remover == "DockerRuntime.cleanup":
+        removed = DockerRuntime(docker_engine).cleanup({"campaign": campaign})
+    else:
+        removed = cleanup(campaign=campaign, client=docker_engine).containers
+    assert raced, "the listing never inspected the victim"
+    assert other.name in removed and victim.name not in removed
+    assert not _exists(docker_engine, victim.name) and not _exists(docker_engine, other.name)

@@ -119,6 +119,9 @@ class TrackPlugin(ABC):
     )
     #: Row keys that break ties after ``final``, in order (paper: task success first).
     tie_breaks: ClassVar[tuple[str, ...]] = ("task_success", "invalid_actions", "runtime_min")
+    #: Row keys that are the mean of a per-episode score metric (x 100) and get a 95 %
+    #: interval on the leaderboard beside the final's.
+    interval_columns: ClassVar[tuple[str, ...]] = ("task_success",)
 
     #: Name used in campaigns and on the command line (the entry-point name).
     name: ClassVar[str]
@@ -227,6 +230,12 @@ class TrackPlugin(ABC):
              for r in results])
         row.update(resource_columns(results))
         return row
+
+    def stratum(self, result: EpisodeResult) -> str:
+        """The part of its split an episode's score is averaged in before the split's mean
+        (``summarize``): "" when a split's score is the plain mean of its episodes. The
+        leaderboard resamples within these strata for its intervals."""
+        return ""
 
     def parse_snapshot(self, files: Mapping[str, bytes]) -> dict[str, Any]:
         """The files of one stage-end snapshot that parse (used by scorers)."""

@@ -31,8 +31,11 @@ import json
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+import numpy as np
+
+from orchestrator._results import intervals as iv
 from plugins import Column, TrackPlugin, load_track
-from schemas import CampaignSpec
+from schemas import CampaignSpec, EpisodeResult
 
 
 def held_back(retried: int, allowed: int) -> str:
@@ -66,6 +69,24 @@ class Row:
     planned: int
     quarantined: int = 0
     rank: int = 0
+    #: The final's 95 % interval (``orchestrator._results.intervals``); None without one.
+    interval: iv.Interval | None = None
+    #: The best and worst rank the paired data allow at 95 %.
+    rank_range: tuple[int, int] | None = None
+    #: Intervals of the split scores and of the track's ``interval_columns``.
+    intervals: dict[str, iv.Interval] = field(default_factory=dict)
+
+    @property
+    def ranks(self) -> str:
+        """``1-3``, ``2`` (one rank only) or ``—``."""
+        if self.rank_range is None:
+            return "—"
+        best, worst = self.rank_range
+        return str(best) if best == worst else f"{best}-{worst}"
+
+    @property
+    def ci(self) -> str:
+        return "—" if self.interval is None else self.interval.text()
 
 
 @dataclass
@@ -76,9 +97,23 @@ class Leaderboard:
     columns: list[Column]
     rows: list[Row]
     failures: list[FailureLine] = field(default_factory=list)
+    #: The paired comparison of every pair of teams (None: fewer than two with a final).
+    comparison: iv.Comparison | None = None
 
     # ------------------------------------------------------------------ output
+    def interval_keys(self) -> list[str]:
+        """The keys that carry an interval besides the final, in column order."""
+        have = {k for r in self.rows for k in r.intervals}
+        return [c.key for c in self.columns if c.key in have]
+
+    def _with_ci(self) -> list[Column]:
+        """The columns with the final's interval right after the final."""
+        at = next(i for i, c in enumerate(self.columns) if c.key == "final")
+        return [*self.columns[: at + 1], Column(CI_KEY, "95% CI"), *self.columns[at + 1:]]
+
     def cell(self, row: Row, col: Column) -> str:
+        if col.key == CI_KEY:
+            return row.ci
         v = row.values.get(col.key)
         text = "—" if v is None else cell_text(v, col.fmt)
         if col.key == "final" and row.state != "final":
@@ -92,29 +127,44 @@ class Leaderboard:
                         for c in self.columns],
             "rows": [{"rank": r.rank, "team": r.team, "state": r.state,
                       "episodes": r.episodes, "planned": r.planned,
-                      "quarantined": r.quarantined, "values": r.values} for r in self.rows],
+                      "quarantined": r.quarantined, "values": r.values,
+                      "ci_low": None if r.interval is None else r.interval.low,
+                      "ci_high": None if r.interval is None else r.interval.high,
+                      "rank_range": None if r.rank_range is None else list(r.rank_range),
+                      "intervals": {k: [i.low, i.high] for k, i in r.intervals.items()}}
+                     for r in self.rows],
+            "intervals": INTERVALS_NOTE,
             "failures": [asdict(f) for f in self.failures],
         }, indent=2)
 
     def to_csv(self) -> str:
         out = io.StringIO()
         w = csv.writer(out)
-        w.writerow(["rank", "team", "state", "episodes", *(c.key for c in self.columns)])
+        keys = [k for k in self.interval_keys()]
+        w.writerow(["rank", "rank_best", "rank_worst", "team", "state", "episodes",
+                    *(c.key for c in self.columns), "ci_low", "ci_high",
+                    *(f"{k}_{end}" for k in keys for end in ("low", "high"))])
         for r in self.rows:
-            w.writerow([r.rank, r.team, r.state, r.episodes,
+            best, worst = r.rank_range or ("", "")
+            w.writerow([r.rank, best, worst, r.team, r.state, r.episodes,
                         *("" if r.values.get(c.key) is None else f"{r.values[c.key]:.6g}"
-                          for c in self.columns)])
+                          for c in self.columns),
+                        *_ends(r.interval),
+                        *(e for k in keys for e in _ends(r.intervals.get(k)))])
         return out.getvalue()
 
     def to_markdown(self) -> str:
-        head = ["#", "Team", *(c.title for c in self.columns), "Episodes"]
+        cols = self._with_ci()
+        head = ["#", "Ranks", "Team", *(c.title for c in cols), "Episodes"]
         lines = [f"## {self.campaign} ({self.track}, {self.phase})", "",
                  "| " + " | ".join(head) + " |",
-                 "|" + "|".join(["---:", "---", *(["---:"] * len(self.columns)), "---:"]) + "|"]
+                 "|" + "|".join(["---:", "---:", "---", *(["---:"] * len(cols)), "---:"])
+                 + "|"]
         for r in self.rows:
-            cells = [str(r.rank), r.team, *(self.cell(r, c) for c in self.columns),
+            cells = [str(r.rank), r.ranks, r.team, *(self.cell(r, c) for c in cols),
                      f"{r.episodes}/{r.planned}"]
             lines.append("| " + " | ".join(cells) + " |")
+        lines += ["", LEGEND]
         if self.failures:
             lines += ["", "### Failed episodes", "",
                       "| Team | Episode | Status | Stage reached | Limit hit | Exit code | OOM "
@@ -130,18 +180,20 @@ class Leaderboard:
     def to_text(self, limit: int | None = None) -> str:
         """The table and the failed episodes as plain text within ``limit`` columns
         (default: ``$COLUMNS``, else the terminal's width, else 80)."""
-        from orchestrator._results.text import TextColumn, layout, width
+        from orchestrator._results.text import TextColumn, layout, width, wrapped
 
         limit = limit or width()
         key = [TextColumn("#", tuple(str(r.rank) for r in self.rows)),
+               TextColumn("Ranks", tuple(r.ranks for r in self.rows)),
                TextColumn("Team", tuple(r.team for r in self.rows), right=False)]
         cols = [TextColumn(c.title, tuple(self.cell(r, c) for r in self.rows))
-                for c in self.columns]
+                for c in self._with_ci()]
         cols.append(TextColumn("Episodes", tuple(f"{r.episodes}/{r.planned}"
                                                  for r in self.rows)))
         first = next(i for i, c in enumerate(self.columns) if c.key == "final")
         lines = layout(f"{self.campaign} · {self.track} · {self.phase} (scores 0-100)", key,
-                       cols, first, limit)
+                       cols, first, limit, lead=2)
+        lines += ["", *wrapped(LEGEND, limit)]
         if self.failures:
             lines += ["", "failed episodes (what each team may see)"]
             for f in self.failures:
@@ -157,6 +209,20 @@ class Leaderboard:
         if fmt == "md":
             return self.to_markdown()
         return self.to_text(limit)
+
+
+CI_KEY = "final_ci"
+LEGEND = ("Order (#): the final, then the paper's tie-breaks. Ranks: the ranks the paired "
+          "data allow (95 %, Holm over all pairs). 95% CI: the final's interval (stratified "
+          "bootstrap over episodes). Overlapping ranks: that order is not settled.")
+INTERVALS_NOTE = ("95 % intervals from 2000 stratified bootstrap resamples of the episodes "
+                  "(expanded percentile), seeded by the campaign; rank_range: [1 + teams that "
+                  "beat it, N - teams it beats], pairs compared on shared episodes with "
+                  "Holm's correction")
+
+
+def _ends(i: iv.Interval | None) -> tuple[str, str]:
+    return ("", "") if i is None else (f"{i.low:.6g}", f"{i.high:.6g}")
 
 
 def cell_text(v: float, fmt: str) -> str:
@@ -195,12 +261,17 @@ def _columns(spec: CampaignSpec, plugin: TrackPlugin) -> list[Column]:
     return cols[:at] + splits + cols[at:]
 
 
+def split_weights(spec: CampaignSpec, plugin: TrackPlugin) -> dict[str, float]:
+    """Each split's weight in eq. (2): the campaign file's, else the track's."""
+    return {s.name: s.weight if "weight" in s.model_fields_set
+            else plugin.splits.get(s.name, (s.weight, {}))[0] for s in spec.splits}
+
+
 def _final(spec: CampaignSpec, plugin: TrackPlugin, row: dict[str, float | None]) -> None:
     """Eq. (2) with the campaign's split weights, when every split has a score."""
     if len(spec.splits) < 2 or any(row.get(s.name) is None for s in spec.splits):
         return
-    weights = {s.name: s.weight if "weight" in s.model_fields_set
-               else plugin.splits.get(s.name, (s.weight, {}))[0] for s in spec.splits}
+    weights = split_weights(spec, plugin)
     total = sum(weights.values())
     row["final"] = sum(w * (row[s] or 0.0) for s, w in weights.items()) / total
 
@@ -234,6 +305,9 @@ def build_leaderboard(spec: CampaignSpec, store: Any) -> Leaderboard:
     for i, r in enumerate(rows):
         same = i > 0 and _rank_key(r, keys, lower) == _rank_key(rows[i - 1], keys, lower)
         r.rank = rows[i - 1].rank if same else i + 1
+    mine = {sub.team: {(e.key.split, e.key.index): e.result for e in stored
+                       if e.key.submission == sub.team} for sub in spec.submissions}
+    comparison = _uncertainty(spec, plugin, rows, mine)
 
     failures = [
         FailureLine(e.key.submission, e.key.split, e.key.index, f.kind, f.status.value,
@@ -244,4 +318,58 @@ def build_leaderboard(spec: CampaignSpec, store: Any) -> Leaderboard:
                     None, None, False, held_back(q.retries, spec.retries)) for q in held
     ]
     failures.sort(key=lambda f: (f.team, f.split, f.index))
-    return Leaderboard(spec.name, spec.track, spec.phase, columns, rows, failures)
+    return Leaderboard(spec.name, spec.track, spec.phase, columns, rows, failures, comparison)
+
+
+def _uncertainty(spec: CampaignSpec, plugin: TrackPlugin, rows: list[Row],
+                 results: dict[str, dict[tuple[str, int], EpisodeResult]]
+                 ) -> iv.Comparison | None:
+    """Sets each row's intervals and rank range; returns the pairwise comparison."""
+    episodes = sorted({k for mine in results.values() for k in mine})
+    if not episodes:
+        return None
+    first = {k: next(m[k] for m in results.values() if k in m) for k in episodes}
+    cells, strata = iv.split_cells([(k[0], plugin.stratum(first[k])) for k in episodes],
+                                   split_weights(spec, plugin) if len(spec.splits) > 1
+                                   else {spec.splits[0].name: 1.0})
+    counts = iv.resample_counts(strata, iv.RESAMPLES,
+                                np.random.default_rng(iv.campaign_seed(spec.name)))
+    teams = [r.team for r in rows]
+
+    def matrix(value: Any) -> tuple[np.ndarray, np.ndarray]:
+        vals = np.zeros((len(teams), len(episodes)))
+        have = np.zeros_like(vals, dtype=bool)
+        for t, team in enumerate(teams):
+            for e, k in enumerate(episodes):
+                r = results[team].get(k)
+                v = None if r is None else value(r)
+                if v is not None:
+                    vals[t, e], have[t, e] = v, True
+        return vals, have
+
+    totals, present = matrix(lambda r: 100.0 * r.score.total)
+    finals = iv.interval(totals, present, cells, counts)
+    whole = [iv.Cell(1.0, np.arange(len(episodes)))]
+    for key, stat_cells, (vals, have) in [
+        *((s.name, [c for c in cells if c.split == s.name], (totals, present))
+          for s in spec.splits if len(spec.splits) > 1),
+        *((k, whole, matrix(lambda r, k=k: None if k not in r.score.metrics
+                            else 100.0 * r.score.metrics[k]))
+          for k in plugin.interval_columns),
+    ]:
+        for row, got in zip(rows, iv.interval(vals, have, stat_cells, counts), strict=True):
+            if got is not None and row.values.get(key) is not None:
+                row.intervals[key] = got
+    ranked = [t for t, (row, f) in enumerate(zip(rows, finals, strict=True))
+              if f is not None and row.values.get("final") is not None]
+    for t in ranked:
+        rows[t].interval = finals[t]
+    if len(ranked) < 2:
+        for t in ranked:
+            rows[t].rank_range = (1, 1)
+        return None
+    comparison = iv.compare([teams[t] for t in ranked], totals[ranked], present[ranked], cells,
+                            counts)
+    for t in ranked:
+        rows[t].rank_range = comparison.rank_range(teams[t])
+    return comparison

@@ -58,6 +58,10 @@ class TeamReport:
             "team": self.team, "rank": self.row.rank, "of": self.rows,
             "state": self.row.state, "episodes": self.row.episodes,
             "planned": self.row.planned, "values": self.row.values,
+            "ci_low": None if self.row.interval is None else self.row.interval.low,
+            "ci_high": None if self.row.interval is None else self.row.interval.high,
+            "rank_range": None if self.row.rank_range is None else list(self.row.rank_range),
+            "intervals": {k: [i.low, i.high] for k, i in self.row.intervals.items()},
             "episode_reports": [asdict(e) for e in self.episodes],
         }, indent=2)
 
@@ -67,9 +71,13 @@ class TeamReport:
         limit = limit or width()
         final = self.row.values.get("final")
         score = "—" if final is None else f"{final:.1f}"
+        if self.row.interval is not None:
+            score += f" (95% CI {self.row.interval.text()})"
         state = "" if self.row.state == "final" else f" ({self.row.state})"
+        ranks = "" if self.row.rank_range is None else \
+            f" (the data allow rank {self.row.ranks})"
         lines = wrapped(f"{self.team} in {self.campaign} ({self.track}, {self.phase}): rank "
-                        f"{self.row.rank} of {self.rows}, final {score}{state}, "
+                        f"{self.row.rank} of {self.rows}{ranks}, final {score}{state}, "
                         f"{self.row.episodes}/{self.row.planned} episodes", limit)
         eps = self.episodes
         lines += ["", *table_lines([

@@ -70,13 +70,14 @@ def _fits(columns: Sequence[TextColumn], limit: int) -> bool:
 
 
 def layout(title: str, key: Sequence[TextColumn], columns: Sequence[TextColumn],
-           first: int, limit: int) -> list[str]:
+           first: int, limit: int, lead: int = 1) -> list[str]:
     """Lines of a table of ``key`` columns (``#``, ``Team``) then ``columns``, within
-    ``limit`` characters (module docstring); ``columns[first]`` leads when it is split."""
+    ``limit`` characters (module docstring); ``columns[first:first + lead]`` lead when it
+    is split."""
     out = textwrap.wrap(title, limit) or [""]
     if _fits([*key, *columns], limit):
         return [*out, *table_lines([*key, *columns])]
-    ordered = [columns[first], *columns[:first], *columns[first + 1:]]
+    ordered = [*columns[first:first + lead], *columns[:first], *columns[first + lead:]]
     groups: list[list[TextColumn]] = [[]]
     for c in ordered:
         if groups[-1] and not _fits([*key, *groups[-1], c], limit):
@@ -95,7 +96,7 @@ def _cards(key: Sequence[TextColumn], columns: Sequence[TextColumn], limit: int)
     """One block per row: the key cells on the first line, then ``Title value`` pairs."""
     out: list[str] = []
     for r in range(len(key[0].cells)):
-        out.append("  ".join(k.cells[r] for k in key))
+        out.extend(flow([k.cells[r] for k in key], limit, "", GAP))
         out.extend(flow([f"{c.title} {c.cells[r]}" for c in columns], limit, "    "))
     return out
 

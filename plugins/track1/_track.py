@@ -55,6 +55,7 @@ class Track1(TrackPlugin):
         Column("peak_mem_gb", "Peak Mem GB", "{:.2f}", lower_is_better=True),
         Column("runtime_min", "Runtime min", "{:.1f}", lower_is_better=True),
     )
+    interval_columns = ("task_success", "model_verification", "recovery")
     tie_breaks = ("task_success", "model_verification", "recovery", "invalid_actions",
                   "runtime_min")
 

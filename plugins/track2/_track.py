@@ -73,6 +73,7 @@ class Track2(TrackPlugin):
         Column("runtime_min", "Runtime min", "{:.1f}", lower_is_better=True),
     )
     tie_breaks = ("task_success", "task_model", "attempts", "adapt_time_min", "runtime_min")
+    interval_columns = ("task_success", "task_model")
 
     def stages(self) -> list[StageSpec]:
         return [
@@ -155,6 +156,11 @@ class Track2(TrackPlugin):
 
         scenario = self.make_scenario(seed=seed, split=split, params={"demo_frames": False})
         return preview_png(scenario, out)
+
+    def stratum(self, result: EpisodeResult) -> str:
+        """The episode's family: a split's average is the mean of its families' means."""
+        return next((fam for fam, _ in FAMILY_COLUMNS
+                     if result.score.metrics.get(f"family_{fam}")), "")
 
     def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:
         """Table VII's row: per-family scores (0–100), their mean (``final``, Avg.), success

@@ -1,4 +1,4 @@
-"""``OrchestratorError``: the root of every error the orchestrator package raises (STYLE §5).
+"""``OrchestratorError``: the root of every error the orchestrator package raises.
 
 ``UsageError`` is what the command line raises for a value it cannot use (a track or split
 that does not exist, a folder that is not an episode): the CLI prints it as one line and

@@ -1,5 +1,4 @@
-"""The conformance suite every container runtime must pass (STYLE §4, like dm_env_rpc's
-``compliance/``).
+"""The conformance suite every container runtime must pass (like dm_env_rpc's ``compliance/``).
 
 Subclass it in a test module and give it two pytest fixtures: ``runtime`` (the
 ``AgentRuntime`` under test) and ``probe_image`` (what that runtime starts to run the probe
@@ -21,10 +20,11 @@ folder, so one probe image serves every test, and the checks see the runtime fro
 agent's last log lines come back; a hanging agent is killed on ``stop()``, which is
 idempotent; the agent's environment is the container contract; its children die with it; a
 runaway allocation ends the agent; a missing image is the agent's fault (``AgentStartError``).
-``SandboxConformance`` adds DESIGN §4 for official runtimes, checked from inside: non-root,
-no capabilities, no-new-privileges, seccomp; read-only root and input, capped ``/tmp``; no
-network; nothing of the host's environment; a pids limit that holds a fork bomb; an OOM kill
-reported as such; detached daemons gone with the agent; ``cleanup`` finds leftovers by label.
+``SandboxConformance`` adds the sandbox for official runtimes (docs/architecture.md, 'The
+sandbox'), checked from inside: non-root, no capabilities, no-new-privileges, seccomp;
+read-only root and input, capped ``/tmp``; no network; nothing of the host's environment; a
+pids limit that holds a fork bomb; an OOM kill reported as such; detached daemons gone with
+the agent; ``cleanup`` finds leftovers by label.
 
 ``probe_build_context(folder)`` writes a Docker build context for the probe image.
 Requires pytest only to run.
@@ -260,7 +260,7 @@ class RuntimeConformance:
 
 
 class SandboxConformance(RuntimeConformance):
-    """Adds the sandbox of DESIGN §4, checked from inside the agent (official runtimes)."""
+    """Adds the sandbox, checked from inside the agent (official runtimes)."""
 
     def test_runtime_is_official(self, runtime: AgentRuntime) -> None:
         assert runtime.official, f"{runtime.name} claims no sandbox (official=False)"

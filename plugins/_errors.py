@@ -1,4 +1,4 @@
-"""``PluginError``: the root of every error the plugins package raises (STYLE §5)."""
+"""``PluginError``: the root of every error the plugins package raises."""
 
 from __future__ import annotations
 

@@ -13,7 +13,7 @@ class _Spec(BaseModel):
 
 
 class Limits(_Spec):
-    """Resources and time granted to one agent container (DESIGN §4)."""
+    """Resources and time granted to one agent container (docs/contract.md)."""
 
     cpus: float = Field(default=1.0, gt=0, description="CPU quota in cores.")
     memory_mb: int = Field(default=2048, ge=32, description="Memory limit; swap equals memory.")

@@ -1,6 +1,6 @@
 """Errors of the schemas package, and ``EagcError``, the root of every eagc error.
 
-Each package has one root (STYLE §5): ``schemas.SchemaError``, ``simhost.SimHostError``,
+Each package has one root: ``schemas.SchemaError``, ``simhost.SimHostError``,
 ``plugins.PluginError``, ``orchestrator.OrchestratorError``; all four derive from
 ``EagcError``, so the command line turns any of them into one line.
 """

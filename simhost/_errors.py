@@ -1,4 +1,4 @@
-"""``SimHostError``: the root of every error the simhost package raises (STYLE §5).
+"""``SimHostError``: the root of every error the simhost package raises.
 
 Light (pydantic only, through ``schemas``): the agent client's errors derive from it too.
 """

@@ -1,4 +1,4 @@
-"""``SimHost``: serves one episode of a track to one agent over Zenoh (DESIGN §3).
+"""``SimHost``: serves one episode of a track to one agent over Zenoh (schemas/PROTOCOL.md).
 
 Requests arrive on ``eagc/v1/<episode>/agent/req`` and each gets exactly one reply on
 ``…/rep``, echoing the request's ``id`` when it has one. The host declares a liveliness token

@@ -1,4 +1,4 @@
-"""One error root per package, every error documented as "Raised when …" (STYLE §5).
+"""One error root per package, every error documented as "Raised when …".
 
 Every exception class defined anywhere in the four packages must derive from its
 package's root, and all roots from ``schemas.EagcError``, which the CLI turns into one

@@ -1,7 +1,7 @@
 """The campaign driver: submit, stream results, commit, retry, cancel, fail cleanly.
 
 ``run_campaign`` (re-exported by ``orchestrator._campaign.spec``) takes the campaign's driver
-lock and runs a ``Driver``. What it guarantees under faults (README, "Faults"):
+lock and runs a ``Driver``. What it guarantees under faults (docs/operations.md, "Faults"):
 
 * every result is committed once, at once, before anything else is done with it;
 * Ctrl-C / SIGTERM: the running tasks are cancelled, the campaign's containers removed on

@@ -1,4 +1,4 @@
-"""Prometheus metrics of a campaign, served by the driver (DESIGN §8).
+"""Prometheus metrics of a campaign, served by the driver (docs/architecture.md, 'Observability').
 
 Ray worker processes are short-lived and would each bind a port of their own, so nothing is
 exported from them: the driver feeds these metrics from the results the tasks return and

@@ -1,4 +1,4 @@
-"""Hidden episode seeds, their published commitment, and the reveal (DESIGN §7).
+"""Hidden episode seeds, their published commitment, and the reveal.
 
 The seed of episode ``index`` of ``split`` in ``campaign`` is::
 

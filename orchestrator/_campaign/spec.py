@@ -1,4 +1,4 @@
-"""Campaigns: the spec from YAML, the episode plan, pinned images, and the driver (DESIGN §7).
+"""Campaigns: the spec from YAML, the episode plan, pinned images, and the driver.
 
 ``run_campaign(spec)`` (in ``_driver``) plans every (submission, split, index), asks the
 results store what is already there, and runs only the rest, one Ray task per episode,

@@ -1,4 +1,4 @@
-"""Collecting an agent's ``/output`` safely (DESIGN §4).
+"""Collecting an agent's ``/output`` safely (docs/architecture.md, 'The sandbox').
 
 Only top-level regular files are read; nothing is followed: a symbolic link, FIFO, device,
 socket or folder is refused with a reason, and so is an oversized file or a name that is not

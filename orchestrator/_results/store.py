@@ -1,4 +1,4 @@
-"""The results store: SQLite in WAL mode, one row per episode, committed once (DESIGN §7).
+"""The results store: SQLite in WAL mode, one row per episode, committed once.
 
 Tables (one store can hold several campaigns; every key starts with the campaign)::
 

@@ -1,4 +1,4 @@
-"""CPU placement: an agent's container on cores apart from its sim host's (DESIGN §4).
+"""CPU placement: an agent's container on cores apart from its sim host's.
 
 A placement is one core for the sim host and ``ceil(limits.cpus)`` cores for the agent. An
 episode claims a free placement for as long as its host and agent run: a file lock per core

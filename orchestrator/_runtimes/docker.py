@@ -1,4 +1,4 @@
-"""``DockerRuntime``: the sandbox of DESIGN §4, through the docker SDK.
+"""``DockerRuntime``: the sandbox (docs/architecture.md, 'The sandbox'), through the docker SDK.
 
 No network; read-only root; uid 10001; all capabilities dropped; no-new-privileges; default
 seccomp; pids, memory (swap = memory) and CPU limits; a size-capped /tmp tmpfs; /output a

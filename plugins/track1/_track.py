@@ -1,4 +1,4 @@
-"""``Track1``: unseen-environment exploration and closed-loop execution (paper §III, DESIGN §5).
+"""``Track1``: unseen-environment exploration and closed-loop execution (paper §III).
 
 Stages (Table II, official budgets; a campaign's ``time_scale`` and step caps scale them):
 ``exploration`` 20 min, ``planning`` 10 min (nothing moves; the plan ends it), ``execution``

@@ -1,4 +1,4 @@
-"""``Track2``: one-demonstration rapid adaptation (paper §IV, DESIGN §6).
+"""``Track2``: one-demonstration rapid adaptation (paper §IV, plugins/track2/README.md).
 
 Stages (Table V, official budgets): ``demonstration`` 5 min, ``parsing`` 20 min (nothing
 moves), ``execution`` 30 min with up to three attempts (see ``_episode``). The packet

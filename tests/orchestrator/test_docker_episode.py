@@ -1,4 +1,4 @@
-"""Episodes in real containers under the full sandbox (DESIGN §4)."""
+"""Episodes in real containers under the full sandbox (docs/architecture.md, 'The sandbox')."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Track 1's baselines in their containers, built offline, under the full sandbox, with
-scaled budgets and step caps (DESIGN §4, §5): the heuristic map planner for a whole episode
+scaled budgets and step caps: the heuristic map planner for a whole episode
 (files, MCAP log, plan, picture), every other baseline for a short one."""
 
 from __future__ import annotations

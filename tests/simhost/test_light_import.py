@@ -1,4 +1,4 @@
-"""A team's container needs only pydantic, eclipse-zenoh and numpy (DESIGN §2).
+"""A team's container needs only pydantic, eclipse-zenoh and numpy (docs/architecture.md).
 
 The quick check looks at ``sys.modules`` after the agent-side imports. The strong check
 builds this repository's wheel, installs it without dependencies into a fresh venv that sees

@@ -11,6 +11,7 @@ replay matches), and it is how an organizer audits a top submission's run.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,7 @@ from mcap.reader import make_reader
 from orchestrator._errors import OrchestratorError
 from plugins import Scenario, load_track
 from simhost._actions import check_action
+from simhost._episode import Observation
 
 _TOPICS = ["/eagc/scenario", "/eagc/request", "/eagc/event", "/eagc/state_hash", "/eagc/state"]
 
@@ -55,8 +57,20 @@ def _messages(path: Path) -> list[tuple[str, dict[str, Any] | bytes]]:
     return out
 
 
-def replay(mcap_path: Path | str, *, max_mismatches: int = 5) -> ReplayReport:
-    """Re-simulates an episode from its log and checks every recorded state."""
+def replay(mcap_path: Path | str, *, max_mismatches: int = 5,
+           on_observation: Callable[[int, Observation], None] | None = None) -> ReplayReport:
+    """Re-simulates an episode from its log and checks every recorded state.
+
+    ``on_observation(steps, observation)``, when given, sees each observation the replay
+    makes (reset, step, answer), with the number of steps replayed so far: what the agent
+    was shown, tensors too large for the log included.
+    """
+
+    def shown(out: Any) -> None:
+        if on_observation is not None:
+            obs = out.observation if hasattr(out, "observation") else out
+            on_observation(report.steps, obs)
+
     path = Path(mcap_path)
     messages = _messages(path)
     scen = next((d for t, d in messages if t == "/eagc/scenario"), None)
@@ -87,13 +101,14 @@ def replay(mcap_path: Path | str, *, max_mismatches: int = 5) -> ReplayReport:
             if topic == "/eagc/request":
                 kind, stage = data["kind"], data.get("stage")
                 if kind == "reset":
-                    episode.reset()
+                    shown(episode.reset())
                 elif kind == "step":
                     action = check_action(episode.action_spec, data["action"])
-                    episode.step(stage, action)
+                    out = episode.step(stage, action)
                     report.steps += 1
+                    shown(out)
                 elif kind == "answer":
-                    episode.answer(stage, data["answers"])
+                    shown(episode.answer(stage, data["answers"]))
                 elif kind == "end_stage":
                     payload = data.get("payload") or {}
             elif topic == "/eagc/event":

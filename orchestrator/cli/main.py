@@ -15,6 +15,7 @@ import typer
 from rich.console import Console
 
 from orchestrator._errors import UsageError
+from orchestrator.cli.audit import AUDIT_CODES, audit_cmd
 from orchestrator.cli.campaign import campaign_app, leaderboard_cmd, status_cmd
 from orchestrator.cli.common import (
     EXIT_CODES_HELP,
@@ -42,6 +43,7 @@ app.add_typer(campaign_app, name="campaign")
 # Top-level aliases of the commands an organizer types most.
 app.command("leaderboard", help="Alias of `eagc campaign leaderboard`.")(leaderboard_cmd)
 app.command("status", help="Alias of `eagc campaign status`.")(status_cmd)
+app.command("audit", epilog=AUDIT_CODES)(audit_cmd)
 # Width: $COLUMNS when set, else the terminal's, else 80 (rich decides at each print).
 console = Console()
 #: Progress and warnings: stderr, so that --json output stays clean.

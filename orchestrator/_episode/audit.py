@@ -1,0 +1,270 @@
+"""Auditing one episode from its folder: replay, log steps, and the track's file checks.
+
+``audit_episode(folder)`` reads the episode's MCAP log (what the host recorded: every
+request, every reply with its observation JSON and messages, the small observation
+tensors, the events), replays it (``replay --verify``; the replay also yields what the log
+does not keep, such as the segmentation image), and checks the agent's files:
+
+- **log steps** (every track, ``log_step_findings``): each ``episode_log.jsonl`` record's
+  ``step`` against the host's step count: never past the steps the host had served, and
+  within the steps of the stage the record names; a ``world_model.json``'s ``step`` alike.
+- **the track's checks**, when its package ships an ``audit`` module (``plugins.<track>.
+  audit``, e.g. Track 1's early detections and ids never shown) with ``Shown`` (what the
+  agent was shown: ``observe``, ``message``, ``action``) and ``check_episode``.
+
+The functions are pure where they can be (``log_step_findings``, ``HostSteps``), so that a
+team-facing report can say the same from the same code.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import ModuleType
+from typing import Any, Literal
+
+from mcap.reader import make_reader
+from pydantic import BaseModel, ConfigDict, computed_field
+
+from orchestrator._episode.replay import ReplayError, replay
+from plugins import load_track
+from schemas import LogRecord, SchemaError, parse_episode_log
+
+Severity = Literal["flag", "warning", "note"]
+
+_TOPICS = ["/eagc/scenario", "/eagc/request", "/eagc/reply", "/eagc/observation",
+           "/eagc/event"]
+#: A record may name the step it is about to make, or the one it just made.
+STEP_SLACK = 1
+
+
+class Finding(BaseModel):
+    """One finding: which check, how serious (``flag``: a sign of something wrong;
+    ``warning``: worth a look; ``note``: for the record), where, and why."""
+
+    model_config = ConfigDict(frozen=True)
+
+    check: str
+    severity: Severity
+    message: str
+    step: int | None = None
+    subjects: tuple[str, ...] = ()
+    """What it is about (ids, rooms, an exception type), when it is about something."""
+
+
+class ReplayCheck(BaseModel):
+    """``replay --verify`` of one episode."""
+
+    model_config = ConfigDict(frozen=True)
+
+    ok: bool
+    steps: int = 0
+    hashes_checked: int = 0
+    states_checked: int = 0
+    mismatches: tuple[str, ...] = ()
+    error: str | None = None
+
+
+class EpisodeAudit(BaseModel):
+    """Everything the audit found on one episode."""
+
+    model_config = ConfigDict(frozen=True)
+
+    episode: str
+    folder: str
+    track: str
+    host_steps: int
+    replay: ReplayCheck | None
+    findings: tuple[Finding, ...] = ()
+
+    @computed_field  # type: ignore[prop-decorator]
+    @property
+    def flagged(self) -> bool:
+        return (any(f.severity == "flag" for f in self.findings)
+                or (self.replay is not None and not self.replay.ok))
+
+
+class EpisodeAuditError(ReplayError):
+    """Raised when an episode folder has no readable log to audit."""
+
+
+@dataclass(frozen=True)
+class HostSteps:
+    """The host's step count: in total, and where each stage began and ended."""
+
+    total: int
+    stages: Mapping[str, tuple[int, int]] = field(default_factory=dict)
+    """Stage → (steps served when it started, steps served when it ended)."""
+
+    def at_end(self, stage: str) -> int:
+        return self.stages.get(stage, (self.total, self.total))[1]
+
+
+def log_step_findings(records: Sequence[LogRecord], host: HostSteps,
+                      *, where: str = "episode_log.jsonl") -> list[Finding]:
+    """Each record's ``step`` against the host's count (module doc); pure."""
+    out: list[Finding] = []
+    past = [r for r in records if r.step > host.total + STEP_SLACK]
+    if past:
+        r = past[0]
+        out.append(Finding(check="log_steps", severity="flag", step=r.step, message=(
+            f"{where}: {len(past)} record(s) name a step past the {host.total} the host "
+            f"served (first: step {r.step}, {r.event})")))
+    outside = [r for r in records if r.stage in host.stages and r not in past
+               and not (host.stages[r.stage][0] - STEP_SLACK <= r.step
+                        <= host.stages[r.stage][1] + STEP_SLACK)]
+    if outside:
+        r = outside[0]
+        lo, hi = host.stages[r.stage]  # type: ignore[index]
+        out.append(Finding(check="log_steps", severity="warning", step=r.step, message=(
+            f"{where}: {len(outside)} record(s) name a step outside their stage (first: "
+            f"step {r.step}, {r.event} in {r.stage!r}, which ran over host steps "
+            f"{lo}-{hi})")))
+    return out
+
+
+def track_checks(track: str) -> ModuleType | None:
+    """The track's audit module (``<its package>.audit``), or None when it ships none."""
+    package = type(load_track(track)).__module__.rpartition(".")[0]
+    try:
+        module = importlib.import_module(f"{package}.audit")
+    except ModuleNotFoundError as e:
+        if e.name != f"{package}.audit":
+            raise
+        return None
+    return module if hasattr(module, "Shown") and hasattr(module, "check_episode") else None
+
+
+@dataclass
+class _Log:
+    """What the audit reads of an MCAP log."""
+
+    scenario: dict[str, Any]
+    events: list[dict[str, Any]]
+    host: HostSteps
+
+
+def _read_log(path: Path, shown: Any) -> _Log:
+    """Reads the log once, feeding ``shown`` (None: no track checks) as it goes."""
+    scenario: dict[str, Any] | None = None
+    events: list[dict[str, Any]] = []
+    steps = 0
+    stages: dict[str, list[int]] = {}
+    action: dict[str, Any] | None = None
+    with path.open("rb") as f:
+        for _, channel, message in make_reader(f).iter_messages(topics=_TOPICS,
+                                                                 log_time_order=True):
+            topic, data = channel.topic, json.loads(message.data)
+            if topic == "/eagc/scenario":
+                scenario = data
+            elif topic == "/eagc/request":
+                if data.get("kind") == "step":
+                    steps += 1
+                    action = data.get("action") or {}
+            elif topic == "/eagc/event":
+                events.append(data)
+                if data.get("event") == "stage_start":
+                    stages[str(data.get("stage"))] = [steps, steps]
+                elif data.get("event") == "stage_end":
+                    stages.setdefault(str(data.get("stage")), [steps, steps])[1] = steps
+            elif shown is None:
+                continue
+            elif topic == "/eagc/reply" and data.get("kind") == "observation":
+                shown.observe(steps, data.get("observation") or {}, {})
+                for m in data.get("messages") or ():
+                    shown.message(steps, m)
+                if action is not None and data.get("action") is not None:
+                    shown.action(steps, action, data["action"])
+                action = None
+            elif topic == "/eagc/observation":
+                shown.observe(steps, {}, data)
+    if scenario is None:
+        raise EpisodeAuditError(f"{path}: no /eagc/scenario message: not an eagc episode log")
+    return _Log(scenario, events, HostSteps(steps, {k: (v[0], v[1]) for k, v in stages.items()}))
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()} \
+        if folder.is_dir() else {}
+
+
+def _log_records(blob: bytes | None) -> tuple[list[LogRecord], Finding | None]:
+    if blob is None:
+        return [], Finding(check="log_steps", severity="note",
+                           message="no episode_log.jsonl at the end: nothing to check")
+    try:
+        return parse_episode_log(blob), None
+    except SchemaError as e:
+        return [], Finding(check="log_steps", severity="note", message=(
+            f"episode_log.jsonl does not parse ({e.summary}): not checked"))
+
+
+def _world_model_step(name: str, blob: bytes | None, step: int) -> Finding | None:
+    """A ``world_model.json`` that names a step past the host's count at its snapshot."""
+    try:
+        written = json.loads(blob).get("step") if blob is not None else None
+    except (ValueError, AttributeError):
+        return None
+    if isinstance(written, int) and not isinstance(written, bool) \
+            and written > step + STEP_SLACK:
+        return Finding(check="log_steps", severity="flag", step=written, message=(
+            f"{name}: world_model.json says step {written}; the host had served {step}"))
+    return None
+
+
+def audit_episode(folder: Path | str, *, verify: bool = True) -> EpisodeAudit:
+    """Audits one episode folder (``<runs>/<episode>``; module doc)."""
+    folder = Path(folder)
+    mcap = folder / "host" / "episode.mcap"
+    if not mcap.is_file():
+        raise EpisodeAuditError(f"{folder}: no host/episode.mcap to audit")
+    with mcap.open("rb") as f:
+        first = next(make_reader(f).iter_messages(topics=["/eagc/scenario"]), None)
+    if first is None:
+        raise EpisodeAuditError(f"{mcap}: no /eagc/scenario message: not an eagc episode log")
+    track = json.loads(first[2].data)["track"]
+    checks = track_checks(track)
+    shown = checks.Shown() if checks is not None else None
+    log = _read_log(mcap, shown)
+
+    check: ReplayCheck | None = None
+    if verify:
+        def seen(steps: int, obs: Any) -> None:
+            if shown is not None:
+                shown.observe(steps, {}, obs.tensors)
+
+        try:
+            report = replay(mcap, on_observation=seen)
+            check = ReplayCheck(ok=report.ok, steps=report.steps,
+                                hashes_checked=report.hashes_checked,
+                                states_checked=report.states_checked,
+                                mismatches=tuple(report.mismatches))
+        except Exception as e:  # noqa: BLE001 - a replay that crashes is a finding
+            check = ReplayCheck(ok=False, error=f"{type(e).__name__}: {e}".splitlines()[0])
+
+    findings: list[Finding] = []
+    snapshots: list[tuple[str, int, dict[str, bytes]]] = []
+    for stage in log.host.stages:
+        files = _files(folder / "host" / "snapshots" / stage)
+        if files:
+            snapshots.append((stage, log.host.at_end(stage), files))
+    final = _files(folder / "host" / "output")
+    snapshots.append(("final", log.host.total, final))
+    for name, step, files in snapshots:
+        bad = _world_model_step(name, files.get("world_model.json"), step)
+        if bad is not None:
+            findings.append(bad)
+    records, problem = _log_records(final.get("episode_log.jsonl"))
+    findings += [problem] if problem is not None else log_step_findings(records, log.host)
+    if checks is not None:
+        flags = checks.check_episode(
+            shown, scenario_params=log.scenario.get("params") or {}, events=log.events,
+            snapshots=[checks.Snapshot(n, s, f) for n, s, f in snapshots], log=records)
+        findings += [Finding(check=f.check, severity=f.severity, message=f.message,
+                             step=f.step, subjects=f.subjects) for f in flags]
+    return EpisodeAudit(episode=str(log.scenario.get("episode", folder.name)),
+                        folder=str(folder), track=track, host_steps=log.host.total,
+                        replay=check, findings=tuple(findings))

@@ -338,3 +338,187 @@ def test_table_iv_row_and_columns() -> None:
                                  "invalid_actions", "runtime_min")
     one_split = plugin.summarize([_result("standard", _card(0.5, 1.0, 0.8, None))])
     assert one_split["challenge"] is None and one_split["final"] == pytest.approx(50.0)
+
+
+# -------------------------------------------------- eq. (1) pinned by hand-computed totals
+# The expected numbers below are worked out by hand from the paper's equation (1) and the
+# documented constants (weights 0.40/0.20/0.20/0.10/0.10; model parts topology 0.25,
+# objects 0.25, states 0.15, affordances 0.10, queries 0.25; DETECT_WINDOW 30 steps after
+# the first observable effect; FALSE_ALARM_COST 0.5), never read from ``_score``: moving
+# any of them must fail a test here.
+_LOCKED_GT = truth(doors=[d.model_copy(update={"state": "locked"}) if d.id == 2 else d
+                          for d in GT.doors])
+_LOCKED_FINAL = WorldModel.model_validate({"doors": [{"id": 2, "state": "locked"}]})
+
+
+def _locked_model() -> WorldModel:
+    """The perfect model of the house after door 2 locked."""
+    doc = perfect_model().model_dump()
+    doc["doors"][1]["state"] = "locked"
+    return WorldModel.model_validate(doc)
+
+
+def _card_of(o: Track1Outcome, *, snapshot: WorldModel | None, final: WorldModel | None,
+             log: list[LogRecord] | None = None, steps: int = 100,
+             invalid: int = 0) -> ScoreCard:
+    """The card of ``o`` with separate exploration snapshot and final model."""
+    files: dict[str, Any] = {"episode_log.jsonl": log or []}
+    if final is not None:
+        files["world_model.json"] = final
+    return load_track("track1").score(ScoringInput(
+        scenario=Scenario(track="track1", split="standard", seed=1),
+        status=EpisodeStatus.COMPLETED, end_reason="completed",
+        stages_reached=("exploration", "planning", "execution"),
+        outcome=o.model_dump(mode="json"), files=files,
+        snapshots={"exploration": {"world_model.json": snapshot}} if snapshot else {},
+        steps=steps, invalid_actions=invalid, protocol_errors=0,
+        stage_budgets_s=granted_budgets(load_track("track1").stages())))
+
+
+def test_the_constants_are_the_papers() -> None:
+    assert _score.WEIGHTS == {"task": 0.40, "model": 0.20, "recovery": 0.20,
+                              "efficiency": 0.10, "safety": 0.10}
+    assert _score.MODEL_PARTS == {"topology": 0.25, "objects": 0.25, "states": 0.15,
+                                  "affordances": 0.10, "queries": 0.25}
+    assert (_score.DETECT_WINDOW, _score.FALSE_ALARM_COST) == (30, 0.5)
+
+
+def test_equation_1_on_an_episode_with_every_component_different() -> None:
+    """A door-lock episode, completed, with a partial exploration model.
+
+    task = 0.6 × 1 (success) + 0.4 × 4/4 subgoals = 1.0
+    model parts (exploration snapshot against the 3-room house):
+      topology: 2 of the 3 edges, nothing wrong: F1 = 2·2 / (2 + 3) = 0.8
+      objects: 3 of the 5, all right: F1 = 2·3 / (3 + 5) = 0.75
+      states: doors 1 and 3 and container 11 right, door 2 and container 10 missing: 3/5 = 0.6
+      affordances: (30, wipe) only, of 2: F1 = 2·1 / (1 + 2) = 2/3
+      queries: q0, q1, q5 right of 6: 0.5
+      model = 0.25·0.8 + 0.25·0.75 + 0.15·0.6 + 0.10·2/3 + 0.25·0.5
+            = 0.2 + 0.1875 + 0.09 + 0.0666… + 0.125 = 0.669166…
+    recovery: the lock at step 100 (effect 105); claims at 50 (before it: a false alarm)
+      and 110 (in the window): detected = 1 × (1 − 0.5 × 1) = 0.5; the final model shows
+      door 2 locked: updated = 1; completed = 1 → (0.5 + 1 + 1) / 3 = 5/6
+    efficiency: SPL 8 / 16 = 0.5, × (1 − 10 / 40 redundant) = 0.375
+    safety: bad = 5 invalid + 0.5 × 4 collisions = 7 over 100 steps: task × (1 − 14/100)
+      = 0.86
+    total = 0.40·1 + 0.20·0.669166… + 0.20·5/6 + 0.10·0.375 + 0.10·0.86
+          = 0.4 + 0.133833… + 0.166666… + 0.0375 + 0.086 = 0.824
+    """
+    snapshot = WorldModel.model_validate({
+        "connections": [{"rooms": (0, 1), "door": 1}, {"rooms": (1, 2), "door": 2}],
+        "objects": [{"id": i, "category": c, "room": r, "position": xy}
+                    for i, _, c, _, r, xy in _OBJECTS[:3]],
+        "doors": [{"id": 1, "state": "open"}, {"id": 3, "state": "open"}],
+        "containers": [{"id": 11, "state": "open"}],
+        "affordances": [{"tool": 30, "affordance": "wipe"}],
+    })
+    o = outcome(planned_exception=_planned("door_lock"), exception=_exc("door_lock", 2),
+                gt_final=_LOCKED_GT, queries=graded({k: RIGHT[k] for k in ("q0", "q1", "q5")}),
+                execution={"steps": 40, "redundant": 10, "reference_length": 8.0,
+                           "path_at_success": 16.0}, collisions=4)
+    card = _card_of(o, snapshot=snapshot, final=_LOCKED_FINAL,
+                    log=_log((50, "door_lock"), (110, "door_lock")), invalid=5)
+    assert card.components == pytest.approx({
+        "task": 1.0, "model": 0.6691666666666667, "recovery": 5 / 6, "efficiency": 0.375,
+        "safety": 0.86})
+    assert card.total == pytest.approx(0.824)
+    assert card.metrics["model_verification"] == pytest.approx(0.6691666666666667)
+    assert card.metrics["recovery_detected"] == pytest.approx(0.5)
+
+
+def test_equation_1_on_a_failed_episode_that_made_progress() -> None:
+    """No exception; the mug picked and the fridge reached, not opened nor placed; an empty
+    model with every query right.
+
+    task = 0.6 × 0 + 0.4 × 2/4 = 0.2
+    model = 0.25 × 1 (queries only) = 0.25
+    recovery (no exception): completing the task without a false alarm: 0
+    efficiency: 0 (not completed)
+    safety = 0.2 × (1 − 2 × 10 / 100) = 0.16 (10 invalid actions)
+    total = 0.40·0.2 + 0.20·0.25 + 0 + 0 + 0.10·0.16 = 0.08 + 0.05 + 0.016 = 0.146
+    """
+    o = outcome(success=False, goals=[{"subgoals": {"picked": 3, "reached": 9,
+                                                    "opened": None, "placed": None},
+                                       "done": False}])
+    card = _card_of(o, snapshot=WorldModel(), final=None, invalid=10)
+    assert card.components == pytest.approx({"task": 0.2, "model": 0.25, "recovery": 0.0,
+                                             "efficiency": 0.0, "safety": 0.16})
+    assert card.total == pytest.approx(0.146)
+
+
+_ALL_RIGHT_BUT = {
+    # One part of the exploration model right, the rest empty: its weight alone.
+    "topology": ({"connections": [{"rooms": c, "door": d}
+                                  for c, d in (((0, 1), 1), ((1, 2), 2), ((0, 2), 3))]},
+                 0.25),
+    "objects": ({"objects": [{"id": i, "category": c, "room": r, "position": xy}
+                             for i, _, c, _, r, xy in _OBJECTS]}, 0.25),
+    "states": ({"doors": [{"id": 1, "state": "open"}, {"id": 2, "state": "closed"},
+                          {"id": 3, "state": "open"}],
+                "containers": [{"id": 10, "state": "closed"}, {"id": 11, "state": "open"}]},
+               0.15),
+    "affordances": ({"affordances": [{"tool": 30, "affordance": "wipe"},
+                                     {"tool": 31, "affordance": "wipe"}]}, 0.10),
+}
+
+
+@pytest.mark.parametrize("part", [*_ALL_RIGHT_BUT, "queries"])
+def test_each_model_part_carries_its_documented_weight(part: str) -> None:
+    """A completed clean episode (task, recovery, efficiency, safety all 1) whose model
+    earns one part only: model = that part's weight w, total = 0.40 + 0.20 w + 0.20 + 0.10
+    + 0.10 = 0.8 + 0.2 w (topology, objects, queries 0.85; states 0.83; affordances 0.82)."""
+    doc, weight = _ALL_RIGHT_BUT.get(part, ({}, 0.25))
+    o = outcome(queries=graded(RIGHT if part == "queries" else {}))
+    card = _card_of(o, snapshot=WorldModel.model_validate(doc), final=None)
+    assert card.components["model"] == pytest.approx(weight)
+    assert card.total == pytest.approx({"topology": 0.85, "objects": 0.85, "states": 0.83,
+                                        "affordances": 0.82, "queries": 0.85}[part])
+
+
+@pytest.mark.parametrize(("effect", "claim", "total"), [
+    # A completed door-lock episode, perfect otherwise (task, model, efficiency, safety 1,
+    # the final model shows the lock): total = 0.8 + 0.20 × (detected + 1 + 1) / 3.
+    (100, 130, 1.0),  # effect at the lock's step 100: 100 + 30 = 130 is the last step
+    (100, 131, 0.8 + 0.2 * 2 / 3),  # 31 steps after the effect: missed → 0.9333…
+    (105, 135, 1.0),  # the window runs from the first observable effect (105 + 30)
+    (105, 136, 0.8 + 0.2 * 2 / 3),
+    (100, 99, 0.8 + 0.2 * 2 / 3),  # before the exception: not a detection
+])
+def test_detection_window_is_30_steps_after_the_effect(effect: int, claim: int,
+                                                       total: float) -> None:
+    o = outcome(planned_exception=_planned("door_lock"),
+                exception=_exc("door_lock", 2, step=100, effect=effect), gt_final=_LOCKED_GT)
+    model = _locked_model()
+    card = _card_of(o, snapshot=perfect_model(), final=model, log=_log((claim, "door_lock")),
+                    steps=300)
+    assert card.total == pytest.approx(total)
+
+
+@pytest.mark.parametrize(("false_alarms", "recovery", "total"), [
+    # With the exception detected in time and the model updated, each false alarm (a claim
+    # of another type) takes 0.5 off the detection: recovery = (1 − 0.5 n + 1 + 1) / 3.
+    (0, 1.0, 1.0),
+    (1, 2.5 / 3, 0.8 + 0.2 * 2.5 / 3),  # 0.9666…
+    (2, 2 / 3, 0.8 + 0.2 * 2 / 3),  # 1 − 2 × 0.5 = 0: 0.9333…
+    (3, 2 / 3, 0.8 + 0.2 * 2 / 3),  # floor 0, never negative
+])
+def test_false_alarms_cost_half_a_detection_each(false_alarms: int, recovery: float,
+                                                 total: float) -> None:
+    o = outcome(planned_exception=_planned("door_lock"), exception=_exc("door_lock", 2),
+                gt_final=_LOCKED_GT)
+    model = _locked_model()
+    claims = [(110, "door_lock")] + [(111 + k, "tool_substitution")
+                                     for k in range(false_alarms)]
+    card = _card_of(o, snapshot=perfect_model(), final=model, log=_log(*claims))
+    assert card.components["recovery"] == pytest.approx(recovery)
+    assert card.total == pytest.approx(total)
+
+
+@pytest.mark.parametrize(("false_alarms", "total"), [
+    # Without an exception recovery is completion × (1 − 0.5 × false alarms), floor 0;
+    # everything else perfect: total = 0.8 + 0.20 × recovery.
+    (0, 1.0), (1, 0.9), (2, 0.8), (3, 0.8)])
+def test_false_alarms_without_an_exception(false_alarms: int, total: float) -> None:
+    card = _card_of(outcome(), snapshot=perfect_model(), final=perfect_model(),
+                    log=_log(*[(10 + k, "door_lock") for k in range(false_alarms)]))
+    assert card.total == pytest.approx(total)

@@ -75,6 +75,45 @@ def test_weights_are_equation_3() -> None:
                        "task_model": 0.10, "stability": 0.10}
 
 
+def test_equation_3_on_a_success_at_the_second_attempt(scenario: Scenario) -> None:
+    """Hand-computed: success at attempt 2 of 3, 375 s of adaptation against the official
+    25 min, a model with the public vocabulary only, one drop.
+
+    success = 1
+    adaptation = 0.6 × (3 − 2 + 1) / 3 + 0.4 × (1 − 375 / 1500) = 0.4 + 0.3 = 0.7
+    generalization = 1 (success)
+    task_model = 0.1 stages + 0.1 variables + 0.1 preconditions (constraints and success
+      criteria, 0.35 each, left out) = 0.3
+    stability = 1 × (1 − 0.25 × 1 drop) = 0.75
+    total = 0.45 × 1 + 0.20 × 0.7 + 0.15 × 1 + 0.10 × 0.3 + 0.10 × 0.75
+          = 0.45 + 0.14 + 0.15 + 0.03 + 0.075 = 0.845
+    """
+    model = model_from_truth(truth_of(scenario), constraints=[], success_criteria=[])
+    card = score(scenario, outcome(won=2, adapt_s=375.0, drops=1), model)
+    assert card.components == pytest.approx({"success": 1.0, "adaptation": 0.7,
+                                             "generalization": 1.0, "task_model": 0.3,
+                                             "stability": 0.75})
+    assert card.total == pytest.approx(0.845)
+
+
+def test_equation_3_on_a_failure_that_made_progress(scenario: Scenario) -> None:
+    """Hand-computed: no success in 3 attempts, the best from 0.2 to 0.6 of the way, a
+    perfect task model, 10 jerky steps of 100.
+
+    success = 0, adaptation = 0 (no success)
+    generalization = (0.6 − 0.2) / (1 − 0.2) = 0.5
+    task_model = 1
+    stability = 0.5 × (1 − 10 / 100) = 0.45
+    total = 0.15 × 0.5 + 0.10 × 1 + 0.10 × 0.45 = 0.075 + 0.1 + 0.045 = 0.22
+    """
+    o = outcome(won=None, progress=0.6, start=0.2, jerk_steps=10)
+    card = score(scenario, o, model_from_truth(truth_of(scenario)))
+    assert card.components == pytest.approx({"success": 0.0, "adaptation": 0.0,
+                                             "generalization": 0.5, "task_model": 1.0,
+                                             "stability": 0.45})
+    assert card.total == pytest.approx(0.22)
+
+
 def test_perfect_episode_scores_one(scenario: Scenario) -> None:
     s = _far(scenario)
     card = score(s, outcome(won=1), model_from_truth(truth_of(s)))

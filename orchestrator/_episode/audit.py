@@ -10,7 +10,14 @@ does not keep, such as the segmentation image), and checks the agent's files:
   within the steps of the stage the record names; a ``world_model.json``'s ``step`` alike.
 - **the track's checks**, when its package ships an ``audit`` module (``plugins.<track>.
   audit``, e.g. Track 1's early detections and ids never shown) with ``Shown`` (what the
-  agent was shown: ``observe``, ``message``, ``action``) and ``check_episode``.
+  agent was shown, fed step by step: ``observe(step, data, tensors)``, ``message(step,
+  message)``, ``action(step, action, result)``), ``Snapshot(name, step, files)`` and
+  ``check_episode(shown, scenario_params=, events=, snapshots=, log=)`` returning flags
+  (``check``, ``severity``, ``message``, ``step``, ``subjects``).
+
+What the agent was shown comes from the log's replies (observation JSON, messages, action
+results) and small tensors, and from the replay's observations (every tensor, the
+segmentation image included): one pass over the log, one re-simulation.
 
 The functions are pure where they can be (``log_step_findings``, ``HostSteps``), so that a
 team-facing report can say the same from the same code.

@@ -53,7 +53,7 @@ def audit_cmd(
     for name in team:
         with notes.status(f"auditing {name}…") as status:
             audit = audit_team(spec, name, rerun=rerun,
-                               say=lambda m: status.update(m))  # type: ignore[misc]
+                               say=lambda m: status.update(m))
         text, data = write_report(audit, folder)
         out.print("\n".join(report_lines(audit)))
         out.print(f"report: {text}\n        {data}\n")

@@ -31,7 +31,7 @@ from orchestrator._runtimes.local import LocalProcessRuntime
 from orchestrator.cli.main import app
 from plugins import load_track
 from plugins.track1.audit import Shown, Timeline, detection_flags, world_model_flags
-from schemas import LogRecord, WorldModel
+from schemas import Limits, LogRecord, WorldModel
 
 ROOT = Path(__file__).resolve().parents[2]
 HONEST = f"python {ROOT / 'examples' / 'track1_heuristic' / 'agent.py'}"
@@ -262,3 +262,29 @@ def test_cli_exit_codes(campaign: Campaign, tmp_path: Path) -> None:
     assert "no team 'nobody'" in unknown.output and "Traceback" not in unknown.output
     negative = runner.invoke(app, [*args, "--team", "honest", "--rerun", "-1"])
     assert negative.exit_code == 2
+
+
+def test_a_track_without_checks_gets_replay_and_log_steps(tmp_path: Path) -> None:
+    """The sanity track ships no audit module: replay and log steps still run, and a log
+    that claims more steps than the host served is flagged."""
+    import tempfile
+
+    from orchestrator._episode.audit import audit_episode, track_checks
+
+    assert track_checks("sanity") is None and track_checks("track1") is not None
+    runs = Path(tempfile.mkdtemp(prefix="eagc-au-", dir="/tmp"))
+    result = run_episode(EpisodeSpec(
+        track="sanity", image=f"python {ROOT / 'examples' / 'sanity_agent' / 'agent.py'}",
+        seed=3, runs_dir=runs, limits=Limits(time_scale=0.2, startup_s=30.0,
+                                             pin_cpus=False)),
+        LocalProcessRuntime(quiet=True))
+    folder = Path(result.episode_dir)
+    clean = audit_episode(folder)
+    assert clean.replay is not None and clean.replay.ok and clean.host_steps > 0
+    assert not clean.flagged, clean.findings
+    log = folder / "host" / "output" / "episode_log.jsonl"
+    log.write_text(log.read_text() + json.dumps(
+        {"step": clean.host_steps + 50, "event": "note"}) + "\n")
+    tampered = audit_episode(folder, verify=False)
+    assert tampered.replay is None
+    assert [f.check for f in tampered.findings if f.severity == "flag"] == ["log_steps"]

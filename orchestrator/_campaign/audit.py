@@ -144,8 +144,8 @@ def rerun_choice(episodes: Sequence[tuple[str, int, EpisodeResult]], k: int
     return out
 
 
-def rerun_episode(spec: CampaignSpec, split: str, index: int, official: EpisodeResult,
-                  into: Path, *, runtime: Any = None) -> Rerun:
+def rerun_episode(spec: CampaignSpec, team: str, split: str, index: int,
+                  official: EpisodeResult, into: Path, *, runtime: Any = None) -> Rerun:
     """Runs one episode again (same image, seed, params, index, limits); its folder goes
     under ``into``."""
     from orchestrator._campaign.seeds import load_secret, seed_list
@@ -158,7 +158,8 @@ def rerun_episode(spec: CampaignSpec, split: str, index: int, official: EpisodeR
         result = run_episode(EpisodeSpec(
             track=spec.track, image=official.image, seed=seeds[(split, index)], split=split,
             params=params, limits=spec.limits, runs_dir=short, index=index,
-            labels={"campaign": spec.name, "audit": "rerun"}), runtime or _runtime(spec))
+            labels={"campaign": spec.name, "submission": team, "retry": "audit"}),
+            runtime or _runtime(spec))
         into.mkdir(parents=True, exist_ok=True)
         folder = into / result.episode
         shutil.move(str(short / result.episode), folder)
@@ -197,7 +198,7 @@ def audit_team(spec: CampaignSpec, team: str, *, rerun: int = 0, runtime: Any = 
     chosen = rerun_choice(episodes, rerun)
     for n, (split, index, result) in enumerate(chosen, start=1):
         say(f"{team}: rerunning {split}/{index} ({n}/{len(chosen)})")
-        reruns.append(rerun_episode(spec, split, index, result,
+        reruns.append(rerun_episode(spec, team, split, index, result,
                                     audit_folder(spec) / team / "reruns", runtime=runtime))
     return TeamAudit(campaign=spec.name, track=spec.track, team=team,
                      image=episodes[0][2].image, episodes=tuple(audited),

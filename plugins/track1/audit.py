@@ -55,6 +55,9 @@ HIDDEN_STATES = {"locked": "locked", "unavailable": "unavailable"}
 #: Message fields that carry an instance id, and those that carry room ids.
 ID_KEYS = frozenset({"object", "door", "container", "tool", "target", "item", "receptacle"})
 ROOM_KEYS = frozenset({"room", "rooms"})
+#: A record's ``step`` is the agent's count: it may name the step it is about to make or
+#: the one it just made (the baselines write the former while reading a step's reply).
+STEP_SLACK = 1
 
 
 @dataclass(frozen=True)
@@ -139,8 +142,9 @@ class Shown:
     def action(self, step: int, action: Mapping[str, Any],
                result: Mapping[str, Any] | None) -> None:
         """One action and its result (``{ok, reason}``), ``step`` the one it made."""
-        p = _as_id(action.get("primitive"))
-        name = PRIMITIVES[p] if p is not None and 0 <= p < len(PRIMITIVES) else None
+        p = action.get("primitive")
+        i = _as_id(p)
+        name = PRIMITIVES[i] if i is not None and 0 <= i < len(PRIMITIVES) else p
         if name not in TARGETED or result is None:
             return
         reason = str(result.get("reason") or "")
@@ -305,10 +309,11 @@ def _named_ids(data: Any) -> set[int]:
 def detection_flags(records: Sequence[LogRecord], timeline: Timeline) -> list[Flag]:
     """Each ``exception_detected`` record against what could show it (module doc).
 
-    A claim of the episode's exception type made before its first observable effect is
-    flagged when the record names the exception's subject (it knew what would change),
-    and a warning otherwise (a false alarm of the right type can be luck; the score
-    already counts one made before the exception as a false alarm).
+    A claim of the episode's exception type made before its first observable effect (by
+    more than ``STEP_SLACK``) is flagged when the record names the exception's subject
+    (it knew what would change), and a warning otherwise (a false alarm of the right type
+    can be luck; the score already counts one made before the exception as a false
+    alarm).
     """
     flags: list[Flag] = []
     for r in records:
@@ -321,10 +326,11 @@ def detection_flags(records: Sequence[LogRecord], timeline: Timeline) -> list[Fl
                               f"episode's exception is {real or 'none'}", r.step,
                               (str(kind),)))
             continue
-        if timeline.step is None or r.step < timeline.step:
+        step = r.step + STEP_SLACK
+        if timeline.step is None or step < timeline.step:
             why = ("it never happened" if timeline.step is None
                    else f"it happened at step {timeline.step}")
-        elif timeline.effect_step is None or r.step < timeline.effect_step:
+        elif timeline.effect_step is None or step < timeline.effect_step:
             why = (f"it happened at step {timeline.step} and "
                    + ("never showed" if timeline.effect_step is None
                       else f"first showed at step {timeline.effect_step}"))

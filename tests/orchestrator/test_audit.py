@@ -96,11 +96,14 @@ def test_detection_flags_by_timeline() -> None:
     flags = detection_flags([record(10, "object_relocation", item=40),
                              record(20, "object_relocation", item=7),
                              record(55, "object_relocation", item=40),
+                             record(58, "object_relocation", item=40),
+                             record(59, "object_relocation", item=40),  # one step slack
                              record(61, "object_relocation", item=40),
                              record(62, "door_lock")], timeline)
     assert [(f.step, f.check, f.severity) for f in flags] == [
         (10, "early_detection", "flag"), (20, "early_detection", "warning"),
-        (55, "early_detection", "flag"), (62, "false_alarm", "note")]
+        (55, "early_detection", "flag"), (58, "early_detection", "flag"),
+        (62, "false_alarm", "note")]
     # Planned, never applied: the plan's subject still counts.
     never = Timeline.from_log(params, [])
     assert [f.severity for f in detection_flags([record(5, "object_relocation", item=40)],

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import shutil
 import tempfile
+import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -261,19 +262,22 @@ def report_lines(audit: TeamAudit, limit: int = 80) -> list[str]:
     if details or errors or mismatched:
         out += ["", "Findings"]
     for e in errors:
-        out += wrapped(f"{e.split}/{e.index}: [error] not audited: {e.error}", limit)
+        out += _item(f"{e.split}/{e.index}: [error] not audited: {e.error}", limit)
     for e in mismatched:
         assert e.audit is not None and e.audit.replay is not None
         why = e.audit.replay.error or "; ".join(e.audit.replay.mismatches) or (
             f"{e.audit.replay.hashes_checked} of {e.audit.replay.steps} steps hashed")
-        out += wrapped(f"{e.split}/{e.index}: [replay] {why}", limit, "")
+        out += _item(f"{e.split}/{e.index}: [replay] {why}", limit)
     order = {"flag": 0, "warning": 1, "note": 2}
     for e, f in sorted(details, key=lambda p: order[p[1].severity]):
-        first = f"{e.split}/{e.index}: [{f.severity}] {f.check}: {f.message}"
-        lines = wrapped(first, limit)
-        out += [lines[0], *wrapped(" ".join(lines[1:]), limit, "    ")] if len(lines) > 1 \
-            else lines
+        out += _item(f"{e.split}/{e.index}: [{f.severity}] {f.check}: {f.message}", limit)
     return out
+
+
+def _item(text: str, limit: int) -> list[str]:
+    """One finding: wrapped at ``limit``, the lines after the first indented."""
+    return textwrap.wrap(text, limit, subsequent_indent="    ", break_long_words=False,
+                         break_on_hyphens=False)
 
 
 def write_report(audit: TeamAudit, folder: Path) -> tuple[Path, Path]:

@@ -66,10 +66,9 @@ def replay(mcap_path: Path | str, *, max_mismatches: int = 5,
     was shown, tensors too large for the log included.
     """
 
-    def shown(out: Any) -> None:
+    def shown(observation: Observation) -> None:
         if on_observation is not None:
-            obs = out.observation if hasattr(out, "observation") else out
-            on_observation(report.steps, obs)
+            on_observation(report.steps, observation)
 
     path = Path(mcap_path)
     messages = _messages(path)
@@ -106,9 +105,9 @@ def replay(mcap_path: Path | str, *, max_mismatches: int = 5,
                     action = check_action(episode.action_spec, data["action"])
                     out = episode.step(stage, action)
                     report.steps += 1
-                    shown(out)
+                    shown(out.observation)
                 elif kind == "answer":
-                    shown(episode.answer(stage, data["answers"]))
+                    shown(episode.answer(stage, data["answers"]).observation)
                 elif kind == "end_stage":
                     payload = data.get("payload") or {}
             elif topic == "/eagc/event":

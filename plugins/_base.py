@@ -122,6 +122,11 @@ class TrackPlugin(ABC):
     #: Row keys that are the mean of a per-episode score metric (x 100) and get a 95 %
     #: interval on the leaderboard beside the final's.
     interval_columns: ClassVar[tuple[str, ...]] = ("task_success",)
+    #: Split -> standard deviation (points) of the per-episode score difference of two
+    #: teams on the same episode, measured between neighbouring baselines by the track's
+    #: calibration benchmark: what ``eagc campaign plan`` sizes a campaign by without a
+    #: pilot. Empty: no reference (a pilot is needed).
+    reference_spread: ClassVar[Mapping[str, float]] = {}
 
     #: Name used in campaigns and on the command line (the entry-point name).
     name: ClassVar[str]

@@ -173,7 +173,7 @@ def compare(teams: Sequence[str], values: np.ndarray, present: np.ndarray,
             continue
         n = int(both[np.concatenate([c.episodes for c in cells])].sum())
         k = sum(1 for c in cells if both[c.episodes].any())
-        se = float(b.std()) * _expansion(n, k, level)
+        se = float(b.std()) * widening(n, k, level)
         p = float(2 * stats.norm.sf(abs(d) / se)) if se > 0 else float(d == 0)
         above = float(np.mean(b > 0) + 0.5 * np.mean(b == 0))
         diff[i, j], diff[j, i] = d, -d
@@ -190,7 +190,7 @@ def compare(teams: Sequence[str], values: np.ndarray, present: np.ndarray,
     return Comparison(tuple(teams), beats, prob, p_value)
 
 
-def _expansion(n: int, k: int, level: float) -> float:
+def widening(n: int, k: int, level: float) -> float:
     """How much wider than normal the expanded percentile interval is (1 with many)."""
     return float(stats.norm.isf(expanded_tail(n, k, level) / 2) / stats.norm.isf((1 - level) / 2))
 

@@ -1,4 +1,4 @@
-"""``eagc campaign …``: run, leaderboard, commit, reveal, status.
+"""``eagc campaign …``: run, plan, leaderboard, commit, reveal, status.
 
 Mount with ``app.add_typer(campaign_app, name="campaign")``; run standalone as
 ``python -m orchestrator.cli.campaign``. Errors end in one line with the exit codes of
@@ -152,6 +152,44 @@ def run_cmd(
         raise typer.Exit(ExitCode.CANCELLED)
     if report.quarantined:
         raise typer.Exit(ExitCode.INFRA)
+
+
+@campaign_app.command("plan")
+def plan_cmd(
+    campaign: CampaignArg,
+    pilot: Annotated[Path | None, typer.Option(
+        help="A pilot campaign file whose results give the paired spread and the episode "
+             "durations (default: the track's reference spread and the stage budgets).")
+    ] = None,
+    resolve: Annotated[float, typer.Option(
+        help="The gap (final points, 0-100) two teams must be separated at.")] = 10.0,
+    confidence: Annotated[float, typer.Option(min=0.5, max=0.999)] = 0.95,
+    power: Annotated[float, typer.Option(
+        help="How often a true gap of --resolve is separated.", min=0.5, max=0.99)] = 0.8,
+    workers: Annotated[int, typer.Option(help="Workers the campaign will run on.",
+                                         min=1)] = 1,
+    fmt: Annotated[str, typer.Option("--format", help="table or json")] = "table",
+) -> None:
+    """Size a campaign before running it: episodes per split to separate two teams
+    RESOLVE points apart, and the episode-hours and wall time that costs."""
+    from orchestrator._campaign.plan import plan_campaign, results_by_team
+    from orchestrator._errors import UsageError
+
+    if fmt not in ("table", "json"):
+        raise UsageError(f"--format {fmt!r}: table or json")
+    spec = _load(campaign)
+    results, name = None, None
+    if pilot is not None:
+        pilot_spec = _load(pilot)
+        if pilot_spec.track != spec.track:
+            raise UsageError(f"the pilot {pilot_spec.name} is a {pilot_spec.track} campaign, "
+                             f"not {spec.track}")
+        with _store(pilot_spec) as store:
+            results, name = results_by_team(pilot_spec, store), pilot_spec.name
+    plan = plan_campaign(spec, resolve=resolve, workers=workers, pilot=results,
+                         pilot_name=name, confidence=confidence, power=power)
+    print(plan.to_json() if fmt == "json" else plan.to_text(), end="\n" if fmt == "json"
+          else "")
 
 
 @campaign_app.command("rebuild-store")

@@ -7,6 +7,15 @@ draws, in order, whether there is an exception and which type (Table III), how m
 the instruction has, the task (one the exception can matter to, ``_tasks``) and the
 queries asked at the end of exploration (``_queries``).
 
+In a campaign the episode's index within its split decides whether it has an exception
+and which (``stratified_exception``), so that any block of consecutive indices holds the
+split's mix (at ``exception_probability`` 0.5 and four types, every 8 consecutive
+episodes hold one of each type and four without): a campaign's final no longer moves
+with how many exceptions its seeds happened to draw. The seed still decides the house,
+the task (made for that type where the house can hold it, else the next type that fits,
+as for a drawn one) and where the exception strikes. A one-off episode (no index) keeps
+the seeded draw.
+
 Split parameters (``KNOWN_PARAMS``, the split's defaults in ``Track1.splits``):
 ``rooms`` (inclusive range), ``exception_probability``, ``exceptions`` (the allowed
 types), ``goals`` (inclusive range of clauses), ``language`` (``templates``: the dev
@@ -20,7 +29,9 @@ grammar), ``step_budgets`` (false: no per-episode step budgets, as on the dev sp
 from __future__ import annotations
 
 import difflib
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -79,17 +90,38 @@ def split_config(split: str, params: Mapping[str, Any]) -> HouseSplit:
         raise PluginError(f"track1: bad split parameters for {split!r}: {e}") from e
 
 
-def build_scenario(seed: int, split: str, params: Mapping[str, Any]) -> Track1Scenario:
-    """The hidden scenario of a seed in a split (same arguments, same scenario)."""
+def stratified_exception(index: int, probability: float, allowed: Sequence[str]
+                         ) -> str | None:
+    """The exception type of the ``index``-th episode of a split (None: no exception).
+
+    Slot ``i`` has an exception when ``floor((i + 1) p) > floor(i p)`` (exceptions spread
+    evenly at rate ``p``), and the exception slots take the allowed types in turn, so every
+    ``len(allowed) / p`` consecutive indices (for a rational ``p``) hold the exact mix."""
+    if not allowed or index < 0:
+        return None
+    p = Fraction(probability).limit_denominator(1000)  # exact: no rounding moves a slot
+    before = math.floor(index * p)  # exception slots before this one
+    if math.floor((index + 1) * p) <= before:
+        return None
+    return allowed[before % len(allowed)]
+
+
+def build_scenario(seed: int, split: str, params: Mapping[str, Any],
+                   index: int | None = None) -> Track1Scenario:
+    """The hidden scenario of a seed in a split (same arguments, same scenario); with the
+    episode's ``index`` in its split, the exception type comes from the index."""
     check_params(params)
     config = split_config(split, params)
     layout = generate_house(seed, params=config.params)
     truth = initial_ground_truth(layout)
     rng = np.random.default_rng([seed, 1])
     allowed = [t for t in EXCEPTION_TYPES if t in params.get("exceptions", EXCEPTION_TYPES)]
+    probability = float(params.get("exception_probability", 0.5))
     exception = None
-    if allowed and rng.random() < float(params.get("exception_probability", 0.5)):
-        exception = allowed[int(rng.integers(len(allowed)))]
+    if allowed and rng.random() < probability:  # drawn even with an index: the seed's
+        exception = allowed[int(rng.integers(len(allowed)))]  # later draws stay the same
+    if index is not None:
+        exception = stratified_exception(index, probability, allowed)
     lo, hi = params.get("goals", (1, 1))
     n_goals = int(rng.integers(int(lo), int(hi) + 1))
     dev = params.get("language", "grammar") == "templates"

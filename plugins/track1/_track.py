@@ -56,6 +56,9 @@ class Track1(TrackPlugin):
         Column("runtime_min", "Runtime min", "{:.1f}", lower_is_better=True),
     )
     interval_columns = ("task_success", "model_verification", "recovery")
+    #: Measured by ``tests/benchmarks/bench_track1_fidelity.py --standard 9100:9130
+    #: --challenge 9100:9130`` (heuristic, memory-free, look-ahead, structured: 36.8, 27.2).
+    reference_spread = {"standard": 37.0, "challenge": 27.0}
     tie_breaks = ("task_success", "model_verification", "recovery", "invalid_actions",
                   "runtime_min")
 
@@ -77,7 +80,7 @@ class Track1(TrackPlugin):
         if split not in self.splits:
             raise PluginError(f"track1: unknown split {split!r}; one of {sorted(self.splits)}")
         merged = {**self.splits[split][1], **params}
-        spec = build_scenario(seed, split, merged)
+        spec = build_scenario(seed, split, merged, index)
         return Scenario(track=self.name, split=split, seed=seed,
                         params=spec.model_dump(mode="json"))
 

@@ -74,6 +74,9 @@ class Track2(TrackPlugin):
     )
     tie_breaks = ("task_success", "task_model", "attempts", "adapt_time_min", "runtime_min")
     interval_columns = ("task_success", "task_model")
+    #: Measured by ``tests/benchmarks/bench_track2_fidelity.py --inproc --per-family 4
+    #: --first-seed 53000`` (imitation, waypoint, demo parser, task model: 30.7, 35.8).
+    reference_spread = {"standard": 31.0, "challenge": 36.0}
 
     def stages(self) -> list[StageSpec]:
         return [

@@ -62,6 +62,8 @@ class Played:
     exception: str | None = None
     snapshots: dict[str, dict[str, Any]] = field(default_factory=dict)
     """The parsed files of each stage-end snapshot (stage name → file name → model)."""
+    planned: str | None = None
+    """The type of the exception the scenario planned (None: none)."""
 
 
 class DirectEnv:
@@ -201,16 +203,18 @@ class DirectEnv:
 
 def run_agent(make_agent: Callable[[Track1Episode], Any], split: str, seed: int, *,
               max_steps_per_stage: int | None = None, params: Mapping[str, Any] | None = None,
-              render: bool = True) -> Played:
+              render: bool = True, index: int | None = None) -> Played:
     """Plays one episode with ``make_agent(episode).run(env)`` and scores it.
 
     ``render=False`` leaves the camera images out (none of the baselines reads them, and
-    rendering changes nothing in the simulation; it is 2/3 of a step's cost)."""
+    rendering changes nothing in the simulation; it is 2/3 of a step's cost). ``index``: the
+    episode's index in its split, as a campaign gives it (the exception type comes from
+    it); None: a one-off episode (the seed draws it)."""
     plugin = load_track("track1")
     merged = dict(params or {})
     if not render:
         merged["render_rgbd"] = False
-    scenario = plugin.make_scenario(seed=seed, split=split, params=merged)
+    scenario = plugin.make_scenario(seed=seed, split=split, params=merged, index=index)
     episode = plugin.make_episode(scenario)
     assert isinstance(episode, Track1Episode)
     with tempfile.TemporaryDirectory(prefix="t1h-") as tmp:
@@ -255,7 +259,8 @@ def run_agent(make_agent: Callable[[Track1Episode], Any], split: str, seed: int,
     exc = outcome.get("exception") or {}
     return Played(split=split, seed=seed, card=card, status=status, end_reason=env.end_reason,
                   steps=env.steps, invalid_actions=env.invalid, latencies_ms=env.latencies,
-                  error=error, exception=exc.get("type"), snapshots=snaps)
+                  error=error, exception=exc.get("type"), snapshots=snaps,
+                  planned=(scenario.params.get("exception") or {}).get("type"))
 
 
 def median(values: list[float]) -> float:

@@ -9,8 +9,8 @@ its tensors. The demonstration packet goes to ``$EAGC_INPUT/demo`` and the agent
 to ``$EAGC_OUTPUT``; the final ``task_model.json`` is scored by the plugin's ``score``, the
 same scoring path as a campaign. What it leaves out: Zenoh, the container, wall-clock stage
 budgets, the MCAP log and stage snapshots (the final files decide). Used by
-``bench_track2_fidelity.py --inproc`` for calibration runs (the README's current figures come
-from it: the same agent code and scoring path; adaptation time reads 0, there is no clock).
+``bench_track2_fidelity.py --inproc`` for calibration runs (the same agent code and scoring
+path; adaptation time reads 0, there is no clock).
 """
 
 from __future__ import annotations

@@ -21,6 +21,10 @@
   is two thirds of a step's cost.
 - ``--json``: also write every episode's figures (its score card's components and
   metrics: the parts of the model and recovery scores among them).
+- ``--unstratified``: each seed draws its exception, as a one-off episode does. By default
+  the ``k``-th seed of a split's range is episode index ``k``, as in a campaign, and the
+  index decides the exception type (``plugins/track1/_scenario.py``); the report says how
+  often a house could not hold its index's type (the task then fits the next type).
 
 Every episode is played in process by ``_track1_harness.DirectEnv``: the sim host's rules
 (stages, step budgets, action checks, invalid actions, /output snapshots with the worker's
@@ -37,7 +41,9 @@ above the memory-free policy on model and recovery, the structured planner highe
 oracle >= 95 and nothing <= 5 on both splits, and the same score for the same seed twice.
 Each Final check also gives the Final's standard error (from the spread of the episodes'
 scores): on 20 + 20 seeds it is 4-5 points for the baselines (3-3.7 on 40 + 40), so a
-check missed by less than that may be chance alone.
+check missed by less than that may be chance alone. Then each system's final with its 95 %
+interval and, for each pair of neighbours in Table IV's order, the paired probability that
+they are in that order, and the paired spread per split (``tests/benchmarks/_uncertainty``).
 
 Not collected by pytest (the file is ``bench_*.py``). With 2 workers on 2 cores: 4-5 min
 for 40 + 40 seeds of every system on a quiet machine, about 8 while the test suite runs
@@ -60,10 +66,14 @@ from pathlib import Path
 from typing import Any
 
 from _machine import die_with_parent, load_average, machine_line  # noqa: E402  (sibling)
+from _uncertainty import paired_spread, uncertainty_lines  # noqa: E402  (sibling)
 
 ROOT = Path(__file__).resolve().parents[2]
 HERE = Path(__file__).resolve().parent
 SYSTEMS = ("sanity", "heuristic", "memoryfree", "lookahead", "structured", "oracle", "nothing")
+#: Table IV's order of finals, lowest first, and eq. 2's split weights.
+ORDER = ("sanity", "heuristic", "memoryfree", "lookahead", "structured")
+WEIGHTS = {"standard": 0.6, "challenge": 0.4}
 NAMES = {"sanity": "Random sanity", "heuristic": "Heuristic planner",
          "memoryfree": "Memory-free policy", "lookahead": "PathDreamer-style",
          "structured": "Structured WM+replan", "oracle": "Oracle (privileged)",
@@ -79,7 +89,8 @@ CHUNK = 5
 
 
 # ============================================================================ children
-def child(system: str, split: str, seeds: list[int], cap: int | None, render: bool) -> None:
+def child(system: str, split: str, seeds: list[tuple[int, int | None]], cap: int | None,
+          render: bool) -> None:
     """Plays episodes in this process and prints one JSON line per episode."""
     die_with_parent()
     os.environ.setdefault("MUJOCO_GL", "egl")
@@ -95,9 +106,9 @@ def child(system: str, split: str, seeds: list[int], cap: int | None, render: bo
         sys.path.insert(0, str(ROOT / "examples" / f"track1_{system}"))
         agent = importlib.import_module("agent")
         make = lambda episode: agent.Agent()  # noqa: E731
-    for seed in seeds:
+    for seed, index in seeds:
         t0 = time.perf_counter()
-        p = run_agent(make, split, seed, max_steps_per_stage=cap, render=render)
+        p = run_agent(make, split, seed, max_steps_per_stage=cap, render=render, index=index)
         card = p.card
         print(json.dumps({
             "system": system, "split": split, "seed": seed, "total": card.total,
@@ -105,14 +116,15 @@ def child(system: str, split: str, seeds: list[int], cap: int | None, render: bo
             "model": card.metrics.get("model_verification", 0.0),
             "recovery": card.metrics.get("recovery"), "invalid": p.invalid_actions,
             "latency_ms": median(p.latencies_ms), "steps": p.steps, "status": p.status.value,
-            "exception": p.exception, "error": p.error, "wall_s": time.perf_counter() - t0,
+            "exception": p.exception, "planned": p.planned, "index": index,
+            "error": p.error, "wall_s": time.perf_counter() - t0,
             "components": card.components, "metrics": card.metrics}), flush=True)
 
 
-def _run_child(system: str, split: str, seeds: list[int], cap: int | None,
+def _run_child(system: str, split: str, seeds: list[tuple[int, int | None]], cap: int | None,
                render: bool) -> list[dict[str, Any]]:
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", system, split,
-           ",".join(map(str, seeds))]
+           ",".join(f"{s}:{'' if i is None else i}" for s, i in seeds)]
     if cap is not None:
         cmd += ["--cap", str(cap)]
     if render:
@@ -209,6 +221,50 @@ def checks(rows: dict[str, dict[str, float]], repeat: tuple[str, float, float] |
     return out
 
 
+def mix_lines(rows: list[dict[str, Any]], systems: list[str]) -> list[str]:
+    """How a campaign's exception mix moves its final: the fallbacks (an index's type the
+    house could not hold), each system's final across disjoint 20 + 20 blocks of the run,
+    and, from the same episodes, the final's spread over 20 + 20 episodes with the mix
+    drawn per seed (total variance) and stratified by index (within-type variance)."""
+    from plugins import load_track
+    from plugins.track1._scenario import stratified_exception
+    from plugins.track1._types import EXCEPTION_TYPES
+
+    splits = load_track("track1").splits
+    indexed = [r for r in rows if r.get("index") is not None]
+    out = [""]
+    if indexed:
+        miss = [r for r in indexed if r["planned"] != stratified_exception(
+            r["index"], float(splits[r["split"]][1]["exception_probability"]),
+            EXCEPTION_TYPES)]
+        out.append(f"exception mix by index: {len(miss)} of {len(indexed)} episodes "
+                   "planned another type than their index's (the house could not hold it)")
+    out.append(f"  {'system':22s}{'blocks':>7s}{'sd':>6s}{'sd, drawn':>11s}"
+               f"{'sd, by index':>14s}   (final over 20 + 20 episodes)")
+    for system in systems:
+        mine = [r for r in rows if r["system"] == system]
+        by = {s: sorted((r for r in mine if r["split"] == s), key=lambda r: r["seed"])
+              for s in WEIGHTS}
+        blocks = min(len(v) for v in by.values()) // 20
+        finals = [sum(w * 100 * statistics.mean(r["total"] for r in by[s][b * 20:b * 20 + 20])
+                      for s, w in WEIGHTS.items()) for b in range(blocks)]
+        drawn = within = 0.0
+        for s, w in WEIGHTS.items():
+            scores = [100 * r["total"] for r in by[s]]
+            if len(scores) < 2:
+                break
+            drawn += w ** 2 * statistics.variance(scores) / 20
+            types: dict[str | None, list[float]] = {}
+            for r in by[s]:
+                types.setdefault(r["planned"], []).append(100 * r["total"])
+            within += w ** 2 * sum(len(v) * statistics.pvariance(v) for v in types.values()
+                                   ) / len(scores) / 20
+        sd = f"{statistics.stdev(finals):6.1f}" if blocks > 1 else f"{'-':>6s}"
+        out.append(f"  {NAMES[system][:21]:22s}{blocks:7d}{sd}{math.sqrt(drawn):11.1f}"
+                   f"{math.sqrt(within):14.1f}")
+    return out
+
+
 # ============================================================================ main
 def _range(text: str) -> list[int]:
     a, b = (int(x) for x in text.split(":"))
@@ -225,13 +281,16 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--cap", type=int, default=None)
     ap.add_argument("--render", action="store_true")
+    ap.add_argument("--unstratified", action="store_true")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--child", nargs=3, metavar=("SYSTEM", "SPLIT", "SEEDS"),
                     help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
         system, split, seeds = args.child
-        child(system, split, [int(s) for s in seeds.split(",")], args.cap, args.render)
+        pairs = [s.split(":") for s in seeds.split(",")]
+        child(system, split, [(int(s), int(i) if i else None) for s, i in pairs], args.cap,
+              args.render)
         return
     systems = [s.strip() for s in args.agents.split(",") if s.strip()]
     unknown = [s for s in systems if s not in SYSTEMS]
@@ -245,10 +304,12 @@ def main() -> None:
     jobs = []
     for system in systems:
         for split, seeds in (("standard", args.standard), ("challenge", args.challenge)):
-            jobs += [(system, split, seeds[k:k + CHUNK]) for k in range(0, len(seeds), CHUNK)]
+            indexed = [(s, None if args.unstratified else k) for k, s in enumerate(seeds)]
+            jobs += [(system, split, indexed[k:k + CHUNK]) for k in range(0, len(seeds), CHUNK)]
     first = next((s for s in ("structured", "heuristic") if s in systems),
                  next(s for s in systems if s != "nothing"))
-    jobs.append((f"repeat:{first}", "standard", args.standard[:1]))
+    jobs.append((f"repeat:{first}", "standard",
+                 [(args.standard[0], None if args.unstratified else 0)]))
     t0 = time.perf_counter()
     done = 0
 
@@ -259,7 +320,7 @@ def main() -> None:
         for r in rows:
             r["repeat"] = system.startswith("repeat:")
         done += 1
-        print(f"  {done}/{len(jobs)} {system} {split} {seeds[0]}..{seeds[-1]} "
+        print(f"  {done}/{len(jobs)} {system} {split} {seeds[0][0]}..{seeds[-1][0]} "
               f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
         return rows
 
@@ -278,6 +339,14 @@ def main() -> None:
     print("\nCalibration checks:")
     for text, ok in checks(rows, repeat):
         print(f"  {'ok  ' if ok else 'FAIL'} {text}")
+    episodes = {s: {(r["split"], r["seed"]): ("", 100 * r["total"]) for r in main_rows
+                    if r["system"] == s} for s in systems}
+    print("\n".join(uncertainty_lines(episodes, ORDER, WEIGHTS, NAMES)))
+    spread = paired_spread(episodes, ORDER)
+    if spread:
+        print("  paired spread, rms over neighbours (Track1.reference_spread): "
+              + ", ".join(f"{s} {v:.1f}" for s, v in spread.items()))
+    print("\n".join(mix_lines(main_rows, [s for s in systems if s in ORDER])))
     if errors:
         print(f"\n{len(errors)} episodes ended with an agent error, e.g. "
               f"{errors[0]['system']} {errors[0]['split']} {errors[0]['seed']}: "

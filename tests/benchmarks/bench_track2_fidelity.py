@@ -23,7 +23,7 @@ baseline highest on task-model %; attempts between 1.5 and 3; oracle >= 95 and n
 on every split; the benchmark prints each as ``ok`` or ``FAIL`` after the tables (same seed,
 same episode is covered by the tests). Check them on several disjoint seed ranges: the
 organizers' seeds are hidden, and with 4 instances per family per split one range's Avg
-moves by 10-15 points from the next (the README pools three ranges of 8 per family). Time on
+moves by 10-15 points from the next (the report's intervals say how far). Time on
 the project's 2-core machine: well under 1 s per in-process episode and 2-4 s per baseline
 episode; the default (8 per family, 2 splits, every agent: 480 episodes, 2 jobs) took 17-19
 minutes while other jobs kept the load average at 9-12; ``--per-family 4 --inproc`` (240
@@ -52,6 +52,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from _machine import load_average, machine_line  # noqa: E402  (sibling)
+from _uncertainty import paired_spread, uncertainty_lines  # noqa: E402  (sibling)
 
 BASELINES = {"imitation": "track2_imitation", "waypoint": "track2_waypoint",
              "demoparser": "track2_demoparser", "trajectory": "track2_trajectory",
@@ -272,6 +273,15 @@ def main() -> int:
     print("\nCalibration checks:")
     for what, ok in checks(by_split):
         print(f"  {'ok  ' if ok else 'FAIL'} {what}")
+    episodes = {a: {(t[1], t[3]): (f"family {t[3] % 5}", 100 * r["score"]["total"])
+                    for t, r in results if t[0] == a and r["status"] == "completed"}
+                for a in agents}
+    order = [a for a in PAPER]  # Table VII's order, lowest Avg first
+    print("\n".join(uncertainty_lines(episodes, order, {s: 1.0 for s in splits}, LABELS)))
+    spread = paired_spread(episodes, order)
+    if spread:
+        print("  paired spread, rms over neighbours (Track2.reference_spread): "
+              + ", ".join(f"{s} {v:.1f}" for s, v in spread.items()))
     if failed:
         print(f"\n{len(failed)} episodes did not complete: {failed[:10]}")
     if args.json is not None:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import os
+import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +14,7 @@ from _support import RecordingRuntime  # tests/orchestrator/_support.py
 from mcap.reader import make_reader
 
 from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._runtimes.interface import AgentHandle, AgentLaunch
 from schemas import EpisodeResult, EpisodeStatus, Limits, load_json
 
 pytestmark = [pytest.mark.docker]
@@ -19,9 +22,10 @@ pytestmark = [pytest.mark.docker]
 SECRET_SEED = 987654321
 
 
-def _run(engine: Any, runs: Path, image: str, *, seed: int = 11, **limits: Any
+def _run(engine: Any, runs: Path, image: str, *, seed: int = 11,
+         runtime: RecordingRuntime | None = None, **limits: Any
          ) -> tuple[EpisodeResult, RecordingRuntime]:
-    runtime = RecordingRuntime(engine)
+    runtime = runtime or RecordingRuntime(engine)
     spec = EpisodeSpec(track="sanity", image=image, seed=seed, split="challenge",
                        limits=Limits(**limits), runs_dir=runs, exit_grace_s=5.0)
     return run_episode(spec, runtime), runtime
@@ -142,18 +146,64 @@ def test_frozen_agent_ends_with_its_stage_budgets(
     _assert_gone(docker_engine, result, runtime)
 
 
+def _processes_of(container_id: str) -> dict[int, str]:
+    """This machine's processes in the container's cgroup (pid -> command line): the
+    container's own, never another test's or another user's."""
+    found: dict[int, str] = {}
+    for p in os.listdir("/proc"):
+        if not p.isdigit():
+            continue
+        try:
+            if container_id not in Path(f"/proc/{p}/cgroup").read_text():
+                continue
+            found[int(p)] = Path(f"/proc/{p}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+        except OSError:  # it went meanwhile
+            continue
+    return found
+
+
+class _WatchingRuntime(RecordingRuntime):
+    """Also notes the processes of each container while it runs (by its cgroup)."""
+
+    def __init__(self, client: Any) -> None:
+        super().__init__(client)
+        self.seen: dict[str, dict[int, str]] = {}
+        self.watchers: list[threading.Thread] = []
+
+    def start(self, launch: AgentLaunch) -> AgentHandle:
+        handle = super().start(launch)
+        seen = self.seen.setdefault(handle.id, {})
+
+        def watch() -> None:
+            deadline = time.monotonic() + 60
+            while time.monotonic() < deadline:
+                now = _processes_of(handle.id)
+                seen.update(now)
+                if sum("sleep 3600" in c for c in seen.values()) >= 3 or (seen and not now):
+                    return
+                time.sleep(0.05)
+
+        self.watchers.append(threading.Thread(target=watch, daemon=True))
+        self.watchers[-1].start()
+        return handle
+
+
 def test_silent_agent_and_its_children_are_gone(
     docker_engine: Any, images: dict, runs_dir: Path
 ) -> None:
-    result, runtime = _run(docker_engine, runs_dir, images["silent"], startup_s=3.0)
+    runtime = _WatchingRuntime(docker_engine)
+    result, _ = _run(docker_engine, runs_dir, images["silent"], runtime=runtime,
+                     startup_s=3.0)
     assert result.status is EpisodeStatus.AGENT_TIMEOUT
     assert result.failure is not None and "never connected" in result.failure.message
     assert result.score.total == pytest.approx(0.0, abs=0.15)
     _assert_gone(docker_engine, result, runtime)
-    assert not any(
-        "sleep 3600" in Path(f"/proc/{p}/cmdline").read_bytes().replace(b"\0", b" ").decode()
-        for p in os.listdir("/proc") if p.isdigit() and Path(f"/proc/{p}/cmdline").exists()
-    ), "a child of the container survived"
+    for t in runtime.watchers:
+        t.join(timeout=10)
+    ((cid, seen),) = runtime.seen.items()
+    children = [pid for pid, cmd in seen.items() if "sleep 3600" in cmd]
+    assert len(children) == 3, f"the container's three children were never seen: {seen}"
+    assert _processes_of(cid) == {}, "a process of the container survived it"
 
 
 def test_hostile_files_are_refused(docker_engine: Any, images: dict, runs_dir: Path) -> None:

@@ -8,8 +8,10 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +63,33 @@ def _exists(engine: Any, name: str) -> bool:
     return bool(engine.containers.list(all=True, filters={"name": name}))
 
 
+@contextmanager
+def _kept_at_age(ages: dict[Path, float]) -> Iterator[None]:
+    """Sets each heartbeat's mtime to its age (s) now and every 0.2 s until the block ends,
+    like a live worker (age 0) or one dead for that long: a fresh heartbeat must stay under
+    STALE, and a stale one under the 30 s of other campaigns' reapers, however long the
+    containers take to start."""
+    done = threading.Event()
+
+    def set_ages() -> None:
+        now = time.time()
+        for path, age in ages.items():
+            os.utime(path, (now - age, now - age))
+
+    def touch() -> None:
+        while not done.wait(0.2):
+            set_ages()
+
+    set_ages()
+    toucher = threading.Thread(target=touch, daemon=True)
+    toucher.start()
+    try:
+        yield
+    finally:
+        done.set()
+        toucher.join()
+
+
 def test_only_stale_heartbeats_are_reaped(docker_engine: Any, campaign: str) -> None:
     """Of four agents, only the one whose heartbeat is readable and stale goes: a fresh
     heartbeat, one this machine cannot read (another node's folder) and none at all stay.
@@ -72,22 +101,21 @@ def test_only_stale_heartbeats_are_reaped(docker_engine: Any, campaign: str) -> 
     stale, fresh = folder / "stale", folder / "fresh"
     stale.touch()
     fresh.touch()
-    old = time.time() - 15
-    os.utime(stale, (old, old))
-    for tag, hb in (("stale", str(stale)), ("fresh", str(fresh)),
-                    ("elsewhere", "/nonexistent/ep0/heartbeat"), ("unlabelled", None)):
-        _sleeper(docker_engine, campaign, tag, hb)
-    dry = _cleanup("--dry-run")
-    assert dry.returncode == 0, dry.stderr
-    assert f"eagc-{campaign}-stale" in dry.stdout
-    assert f"eagc-{campaign}-fresh" not in dry.stdout
-    assert _exists(docker_engine, f"eagc-{campaign}-stale")  # nothing removed by a dry run
-    removed = reap_stale(docker_engine, stale_s=STALE)
-    assert f"eagc-{campaign}-stale" in removed
-    assert not any(n.startswith(f"eagc-{campaign}-") and n != f"eagc-{campaign}-stale"
-                   for n in removed)
-    for tag in ("fresh", "elsewhere", "unlabelled"):
-        assert _exists(docker_engine, f"eagc-{campaign}-{tag}"), tag
+    with _kept_at_age({fresh: 0.0, stale: 15.0}):
+        for tag, hb in (("stale", str(stale)), ("fresh", str(fresh)),
+                        ("elsewhere", "/nonexistent/ep0/heartbeat"), ("unlabelled", None)):
+            _sleeper(docker_engine, campaign, tag, hb)
+        dry = _cleanup("--dry-run")
+        assert dry.returncode == 0, dry.stderr
+        assert f"eagc-{campaign}-stale" in dry.stdout
+        assert f"eagc-{campaign}-fresh" not in dry.stdout
+        assert _exists(docker_engine, f"eagc-{campaign}-stale")  # nothing removed by a dry run
+        removed = reap_stale(docker_engine, stale_s=STALE)
+        assert f"eagc-{campaign}-stale" in removed
+        assert not any(n.startswith(f"eagc-{campaign}-") and n != f"eagc-{campaign}-stale"
+                       for n in removed)
+        for tag in ("fresh", "elsewhere", "unlabelled"):
+            assert _exists(docker_engine, f"eagc-{campaign}-{tag}"), tag
     named = _cleanup("--campaign", campaign)
     assert named.returncode == 0 and "removed 3 container(s)" in named.stdout, named.stdout
     assert not docker_engine.containers.list(all=True,

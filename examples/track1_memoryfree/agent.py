@@ -19,7 +19,9 @@ it leaves through a doorway in sight), the id of what it is approaching while th
 in view, and a step counter (after a while it accepts another tool with the same use). The
 last action's result is part of what it sees: it steps back when it stands in a door's way
 or a turn hits something. Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``),
-numpy and the standard library.
+numpy and the standard library. ``parsing.py``, ``priors.py``, ``priors.npz`` and the
+entry point (``entry.py``) are the Track 1 baselines' library, ``examples/track1_common``
+(this image is built ``FROM`` its image).
 """
 
 from __future__ import annotations
@@ -27,15 +29,21 @@ from __future__ import annotations
 import math
 import sys
 from collections import deque
+from pathlib import Path
 from typing import Any
 
-import numpy as np
-from answers import Answers
-from doorways import Doorways
-from parsing import AFFORDANCES, parse
-from priors import Priors
+_LIBRARY = Path(__file__).resolve().parent.parent / "track1_common"
+if _LIBRARY.is_dir():  # a checkout; in the image the library sits beside this file (/app)
+    sys.path.insert(1, str(_LIBRARY))
 
-from simhost.agent import OutputFiles, RemoteEnv, TimeStep
+import numpy as np  # noqa: E402
+from answers import Answers  # noqa: E402
+from doorways import Doorways  # noqa: E402
+from entry import main  # noqa: E402
+from parsing import AFFORDANCES, parse  # noqa: E402
+from priors import Priors  # noqa: E402
+
+from simhost.agent import OutputFiles, RemoteEnv, TimeStep  # noqa: E402
 
 REACH = {"object": 1.0, "tool": 1.0, "door": 1.3}
 SIZES = {"table": 0.5, "counter": 0.55, "shelf": 0.4, "bed": 0.9, "desk": 0.45, "sofa": 0.6,
@@ -727,11 +735,5 @@ class Agent:
         self.record("note", ts.stage, end=ts.end_reason)
 
 
-def main() -> int:
-    with RemoteEnv() as env:
-        Agent().run(env)
-    return 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(Agent))

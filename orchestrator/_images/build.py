@@ -7,7 +7,10 @@
   downloaded on the host with ``pip install --no-index``; built with no network. The eagc
   wheel is written by ``orchestrator._images.wheel`` (no build backend, no download: it works the
   same in a fresh venv, as root with the system Python, or offline).
-- example agents (``examples/*/Dockerfile``) and test containers built ``FROM`` it.
+- example images (``examples/*/Dockerfile``) and test containers built ``FROM`` it, or
+  ``FROM`` another example's image (a parent is built before the folders that build on it:
+  ``eagc/track2-taskmodel`` on ``eagc/track2-demoparser``, the Track 1 baselines on
+  ``eagc/track1-common``, their shared library, which is an image but not an agent).
 
 Each image carries a label with the hash of what it was built from, so a changed client or
 agent is rebuilt and an unchanged one is reused.
@@ -36,19 +39,40 @@ MIRROR = "http://deb.debian.org/debian"
 CLIENT_SOURCES = ("pyproject.toml", "schemas", "simhost/__init__.py", "simhost/agent.py",
                   "simhost/_wire.py", "simhost/_transport.py", "simhost/_outputs.py",
                   "simhost/_errors.py")
-def example_agents() -> dict[str, Path]:
-    """Every ``examples/<name>/Dockerfile``, as tag ``eagc/<name with - for _>:latest``.
 
-    A folder whose Dockerfile starts ``FROM eagc/<other example>`` is built after it.
-    """
+
+def example_images() -> dict[str, Path]:
+    """Every ``examples/<name>/Dockerfile``, as tag ``eagc/<name with - for _>:latest``, in
+    build order: a folder whose Dockerfile builds ``FROM eagc/<other example>`` comes after
+    that one (at any depth)."""
     found = {
         f"eagc/{d.name.replace('_', '-')}:latest": d
         for d in sorted((REPO / "examples").iterdir())
         if (d / "Dockerfile").is_file()
     }
-    first = {t: d for t, d in found.items() if "FROM eagc/agent-base" in
-             (d / "Dockerfile").read_text()}
-    return {**first, **{t: d for t, d in found.items() if t not in first}}
+    ordered: dict[str, Path] = {}
+
+    def visit(tag: str, chain: tuple[str, ...]) -> None:
+        if tag in ordered:
+            return
+        if tag in chain:
+            raise ImageBuildError(f"examples build FROM each other in a circle: "
+                                  f"{' -> '.join((*chain, tag))}")
+        parent = _parent(found[tag])
+        if parent in found:
+            visit(parent, (*chain, tag))
+        ordered[tag] = found[tag]
+
+    for tag in found:
+        visit(tag, ())
+    return ordered
+
+
+def example_agents() -> dict[str, Path]:
+    """The example images that are agents (their folder has an ``agent.py``), in build
+    order. A library image such as ``eagc/track1-common`` is built but is not an agent."""
+    return {t: d for t, d in example_images().items() if (d / "agent.py").is_file()}
+
 
 Say = Callable[[str], None]
 
@@ -187,10 +211,15 @@ def build_agent_base(client: Any, say: Say = print, *, force: bool = False,
 
 def build_folder(client: Any, folder: Path, tag: str, say: Say = print, *,
                  force: bool = False) -> str:
-    """Builds an agent folder (a Dockerfile ``FROM eagc/agent-base`` or ``FROM`` another
-    example's image) with no network. Its hash covers the parent's, so a rebuilt parent
+    """Builds a folder (a Dockerfile ``FROM eagc/agent-base`` or ``FROM`` another example's
+    image) with no network. An example parent is built first where it is missing or stale
+    (``force`` rebuilds this folder only); the hash covers the parent's, so a rebuilt parent
     rebuilds it."""
-    want = _hash_paths([folder], extra=str(_label(client, _parent(folder))))
+    parent = _parent(folder)
+    parent_folder = example_images().get(parent)
+    if parent_folder is not None and parent_folder.resolve() != folder.resolve():
+        build_folder(client, parent_folder, parent, say)
+    want = _hash_paths([folder], extra=str(_label(client, parent)))
     if not force and _label(client, tag) == want:
         return tag
     _docker_build(client, folder, tag, want, say)
@@ -198,10 +227,11 @@ def build_folder(client: Any, folder: Path, tag: str, say: Say = print, *,
 
 
 def build_all(say: Say = print, *, force: bool = False, client: Any | None = None) -> list[str]:
-    """Base, agent base and every example agent. Returns the tags."""
+    """Base, agent base and every example image (agents and the libraries they build
+    ``FROM``), parents first. Returns the tags."""
     client = client or docker_client()
     tags = [build_base(client, say, force=force), build_agent_base(client, say, force=force)]
-    for tag, folder in example_agents().items():
+    for tag, folder in example_images().items():
         tags.append(build_folder(client, folder, tag, say, force=force))
     return tags
 

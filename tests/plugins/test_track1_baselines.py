@@ -1,7 +1,7 @@
-"""The Track 1 baselines (examples/track1_*): they build on each other by copies that must
-stay identical, they run through the real episode worker (SimHost over Zenoh, MCAP, /output
-collection, scoring) as local processes, and the calibration benchmark's in-process harness
-scores an episode exactly as the worker does.
+"""The Track 1 baselines (examples/track1_*): they share one copy of their library
+(examples/track1_common, the image they are built FROM), they run through the real episode
+worker (SimHost over Zenoh, MCAP, /output collection, scoring) as local processes, and the
+calibration benchmark's in-process harness scores an episode exactly as the worker does.
 
 The agents run WITHOUT the sandbox here (``LocalProcessRuntime``, development only); each runs
 in its container in ``tests/orchestrator/test_track1_docker.py``. The calibration itself
@@ -11,7 +11,9 @@ in its container in ``tests/orchestrator/test_track1_docker.py``. The calibratio
 from __future__ import annotations
 
 import importlib.util
+import json
 import shutil
+import subprocess
 import sys
 import tempfile
 from collections.abc import Iterator
@@ -29,47 +31,70 @@ ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
 BASELINES = ("track1_sanity", "track1_memoryfree", "track1_heuristic", "track1_lookahead",
              "track1_structured")
-SHARED = {
-    "track1_heuristic": ("planner.py", "mapping.py", "skills.py", "model.py", "parsing.py"),
-    "track1_lookahead": ("lookahead.py", "priors.py", "priors.npz"),
-}
-"""Files a baseline folder shares with the folders that build on it (copies)."""
-USERS = {"track1_heuristic": ("track1_lookahead", "track1_structured", "track1_memoryfree"),
-         "track1_lookahead": ("track1_structured", "track1_memoryfree")}
+LIBRARY = EXAMPLES / "track1_common"
+"""The baselines' shared modules: one copy, in the image ``eagc/track1-common``."""
+ON_LIBRARY = ("track1_memoryfree", "track1_heuristic", "track1_lookahead", "track1_structured")
+"""The baselines built FROM the library's image (the sanity baseline needs none of it)."""
 LIMITS = Limits(max_steps_per_stage=60, time_scale=0.2, startup_s=60.0)
 
 
-def test_shared_modules_are_identical_copies() -> None:
-    for origin, names in SHARED.items():
-        for user in USERS[origin]:
-            for name in names:
-                copy = EXAMPLES / user / name
-                if not copy.exists():
-                    continue  # a folder takes only what it uses
-                assert copy.read_bytes() == (EXAMPLES / origin / name).read_bytes(), (
-                    f"examples/{user}/{name} differs from examples/{origin}/{name}: copy it "
-                    "again (each example folder is its own Docker build context)")
-    assert (EXAMPLES / "track1_memoryfree" / "parsing.py").exists()
+def _from(folder: Path) -> str:
+    return next(line for line in (folder / "Dockerfile").read_text().splitlines()
+                if line.startswith("FROM"))
+
+
+def _modules(folder: Path) -> list[Path]:
+    return [*folder.glob("*.py"), *folder.glob("*.npz")]
 
 
 def test_every_baseline_has_its_image_and_readme() -> None:
+    assert _from(LIBRARY) == "FROM eagc/agent-base:latest"
+    assert not (LIBRARY / "agent.py").exists(), "the library is not an agent"
     for name in BASELINES:
         folder = EXAMPLES / name
+        parent = "track1-common" if name in ON_LIBRARY else "agent-base"
+        assert _from(folder) == f"FROM eagc/{parent}:latest", name
+        assert (folder / "agent.py").is_file(), f"{name} has no agent.py"
+    for folder in (LIBRARY, *(EXAMPLES / name for name in BASELINES)):
         dockerfile = (folder / "Dockerfile").read_text()
-        assert dockerfile.splitlines()[[line.startswith("FROM") for line in
-                                        dockerfile.splitlines()].index(True)] == \
-            "FROM eagc/agent-base:latest"
-        assert (folder / "README.md").is_file(), f"{name} has no README"
+        assert (folder / "README.md").is_file(), f"{folder.name} has no README"
         copied = [line for line in dockerfile.splitlines() if line.startswith("COPY")]
-        for module in [*folder.glob("*.py"), *folder.glob("*.npz")]:  # the image has them all
+        for module in _modules(folder):  # the image has them all
             assert any(module.name in line or f"*{module.suffix}" in line for line in copied), (
-                f"{name}'s Dockerfile does not copy {module.name}")
+                f"{folder.name}'s Dockerfile does not copy {module.name}")
         # What runs in the image needs numpy and the light client only (training does not
         # run there: train_*.py run offline, with the simulator).
         text = "\n".join(p.read_text() for p in folder.glob("*.py")
                          if not p.name.startswith("train_"))
         for heavy in ("torch", "mujoco", "ray", "docker", "gymnasium", "plugins", "scipy"):
-            assert f"import {heavy}" not in text and f"from {heavy}" not in text, (name, heavy)
+            assert f"import {heavy}" not in text and f"from {heavy}" not in text, (
+                folder.name, heavy)
+
+
+def test_each_library_module_has_one_copy() -> None:
+    """A baseline built on the library holds none of its modules: one copy of each, and
+    none that its image's ``COPY`` would write over the library's in /app."""
+    library = {m.name for m in _modules(LIBRARY)}
+    assert {"planner.py", "lookahead.py", "parsing.py", "priors.py", "priors.npz"} <= library
+    for name in BASELINES:
+        mine = {m.name for m in _modules(EXAMPLES / name)}
+        assert not mine & library, f"examples/{name} has a copy of {sorted(mine & library)}"
+
+
+@pytest.mark.parametrize("name", ON_LIBRARY)
+def test_each_baseline_imports_the_library_from_a_checkout(name: str, tmp_path: Path) -> None:
+    """Run as a local process (``python examples/<name>/agent.py``: --runtime local, the
+    benchmarks' children), an agent finds the library in the sibling folder by itself."""
+    code = ("import json, os, runpy, sys; sys.path.insert(0, os.path.dirname(sys.argv[1])); "
+            "runpy.run_path(sys.argv[1], run_name='not_main'); "  # as `python agent.py`
+            "print(json.dumps({m: sys.modules[m].__file__ for m in "
+            "('planner', 'lookahead', 'parsing', 'priors') if m in sys.modules}))")
+    out = subprocess.run([sys.executable, "-c", code, str(EXAMPLES / name / "agent.py")],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    loaded = json.loads(out.stdout.splitlines()[-1])
+    assert "parsing" in loaded, loaded  # every one reads the instruction with it
+    assert all(Path(f).parent == LIBRARY for f in loaded.values()), loaded
 
 
 def _run(agent: str, split: str, seed: int, runs: Path, limits: Limits = LIMITS

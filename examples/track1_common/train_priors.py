@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Learns the look-ahead priors of the Track 1 baselines offline, from generated houses.
 
-    python examples/track1_lookahead/train_priors.py [--houses 3000] [--out priors.npz]
+    python examples/track1_common/train_priors.py [--houses 3000] [--out priors.npz]
 
 Plays nothing: it resets the public Gymnasium envs (``eagc/House-v0`` and
 ``eagc/HouseChallenge-v0``, the official splits' houses) on training seeds (from 10**7 on,

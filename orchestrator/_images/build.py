@@ -1,4 +1,4 @@
-"""Building images offline: no registry is needed (DESIGN §4, deploy/).
+"""Building images offline: no registry is needed (docs/architecture.md, deploy/).
 
 - ``eagc/base:bookworm``: a Debian root with python3 made by ``mmdebstrap`` from the Debian
   mirror apt already uses, then ``docker import``-ed.

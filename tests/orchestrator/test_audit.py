@@ -159,7 +159,8 @@ def _truth(seed: int, split: str, index: int, folder: Path) -> Path:
 
 
 @pytest.fixture(scope="module")
-def campaign(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Campaign]:
+def campaign() -> Iterator[Campaign]:
+    import shutil
     import tempfile
 
     folder = Path(tempfile.mkdtemp(prefix="eagc-au-", dir="/tmp"))  # short: unix sockets
@@ -197,6 +198,7 @@ def campaign(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Campaign]:
         yield Campaign(path, spec, truth)
     finally:
         mp.undo()
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 @pytest.fixture(scope="module")
@@ -267,27 +269,31 @@ def test_cli_exit_codes(campaign: Campaign, tmp_path: Path) -> None:
     assert negative.exit_code == 2
 
 
-def test_a_track_without_checks_gets_replay_and_log_steps(tmp_path: Path) -> None:
+def test_a_track_without_checks_gets_replay_and_log_steps() -> None:
     """The sanity track ships no audit module: replay and log steps still run, and a log
     that claims more steps than the host served is flagged."""
+    import shutil
     import tempfile
 
     from orchestrator._episode.audit import audit_episode, track_checks
 
     assert track_checks("sanity") is None and track_checks("track1") is not None
-    runs = Path(tempfile.mkdtemp(prefix="eagc-au-", dir="/tmp"))
-    result = run_episode(EpisodeSpec(
-        track="sanity", image=f"python {ROOT / 'examples' / 'sanity_agent' / 'agent.py'}",
-        seed=3, runs_dir=runs, limits=Limits(time_scale=0.2, startup_s=30.0,
-                                             pin_cpus=False)),
-        LocalProcessRuntime(quiet=True))
-    folder = Path(result.episode_dir)
-    clean = audit_episode(folder)
-    assert clean.replay is not None and clean.replay.ok and clean.host_steps > 0
-    assert not clean.flagged, clean.findings
-    log = folder / "host" / "output" / "episode_log.jsonl"
-    log.write_text(log.read_text() + json.dumps(
-        {"step": clean.host_steps + 50, "event": "note"}) + "\n")
-    tampered = audit_episode(folder, verify=False)
-    assert tampered.replay is None
-    assert [f.check for f in tampered.findings if f.severity == "flag"] == ["log_steps"]
+    runs = Path(tempfile.mkdtemp(prefix="eagc-au-", dir="/tmp"))  # short: unix sockets
+    try:
+        result = run_episode(EpisodeSpec(
+            track="sanity", image=f"python {ROOT / 'examples' / 'sanity_agent' / 'agent.py'}",
+            seed=3, runs_dir=runs, limits=Limits(time_scale=0.2, startup_s=30.0,
+                                                 pin_cpus=False)),
+            LocalProcessRuntime(quiet=True))
+        folder = Path(result.episode_dir)
+        clean = audit_episode(folder)
+        assert clean.replay is not None and clean.replay.ok and clean.host_steps > 0
+        assert not clean.flagged, clean.findings
+        log = folder / "host" / "output" / "episode_log.jsonl"
+        log.write_text(log.read_text() + json.dumps(
+            {"step": clean.host_steps + 50, "event": "note"}) + "\n")
+        tampered = audit_episode(folder, verify=False)
+        assert tampered.replay is None
+        assert [f.check for f in tampered.findings if f.severity == "flag"] == ["log_steps"]
+    finally:
+        shutil.rmtree(runs, ignore_errors=True)

@@ -16,7 +16,10 @@ Channels (JSON unless said otherwise):
 and, so that Foxglove shows the episode (its own schemas, JSON-encoded):
 
 - ``/camera/rgb``          ``foxglove.CompressedImage`` (PNG) of an observation tensor named
-                           ``rgb`` (H×W×3 uint8), at most one every ``image_period_s``
+                           ``rgb`` (H×W×3 uint8), at most one every ``image_period_s``,
+                           and besides one every k-th step (k from ``image_every_steps``,
+                           doubled as the episode grows long: at most ``step_images`` in
+                           all), so that a fast agent's whole episode is seen
 - ``/camera/depth``        ``foxglove.RawImage`` (``32FC1``, metres) of a tensor ``depth``
 - ``/camera/segmentation`` ``foxglove.CompressedImage`` (PNG) of a tensor ``segmentation``,
                            one colour per id, black where it is -1
@@ -24,6 +27,8 @@ and, so that Foxglove shows the episode (its own schemas, JSON-encoded):
                            (``TrackEpisode.poses()``) as frames under ``world``, every step
 - ``/trajectory/<frame>``  ``foxglove.PosesInFrame``: each frame's whole path (once, at the
                            end), so that the 3D panel draws the trajectory
+
+A frame's step is that of the last ``/eagc/state_hash`` before it.
 
 Cost: images only at a low rate (PNG at zlib level 1), one small transform message per
 step, a hash every step and the full state every N steps (the host's ``full_state_every``).
@@ -124,11 +129,15 @@ class McapRecorder(EpisodeRecorder):
     Args:
         path: the file to write.
         image_period_s: at most one camera frame per this many seconds of the episode.
+        image_every_steps: besides, a frame every this many steps; the spacing doubles
+            each time half of what is left of ``step_images`` is used.
+        step_images: at most this many frames kept by step in one episode.
     """
 
     pose_every = 1
 
-    def __init__(self, path: Path | str, *, image_period_s: float = 0.5) -> None:
+    def __init__(self, path: Path | str, *, image_period_s: float = 0.5,
+                 image_every_steps: int = 5, step_images: int = 120) -> None:
         self.path = Path(path)
         self._file = self.path.open("wb")
         self._writer = Writer(self._file, compression=CompressionType.ZSTD)
@@ -138,6 +147,11 @@ class McapRecorder(EpisodeRecorder):
         self._wall0 = time.time_ns()
         self._image_period = image_period_s
         self._last_image: float | None = None
+        self._step = 0  # the last step state() saw: replies follow it
+        self._step_every = max(1, image_every_steps)
+        self._step_images = step_images
+        self._step_quota = max(1, step_images // 2)  # frames left at this spacing
+        self._last_step_image = -1
         self._trajectories: dict[str, list[Pose]] = {}
         self._last_pose_t = 0.0
         self._schemas = {
@@ -190,9 +204,19 @@ class McapRecorder(EpisodeRecorder):
         small = {k: v for k, v in obs.tensors.items() if v.size <= 256}
         if small:
             self.write_json("/eagc/observation", t, small)
-        if (self._last_image is None or t - self._last_image >= self._image_period) and any(
-            k in obs.tensors for k in ("rgb", "depth", "segmentation")
-        ):
+        if not any(k in obs.tensors for k in ("rgb", "depth", "segmentation")):
+            return
+        by_time = self._last_image is None or t - self._last_image >= self._image_period
+        by_step = (self._step_images > 0 and self._step % self._step_every == 0
+                   and self._step != self._last_step_image)
+        if by_step:
+            self._last_step_image = self._step
+            self._step_images -= 1
+            self._step_quota -= 1
+            if self._step_quota == 0:  # a long episode: thinner, still bounded
+                self._step_every *= 2
+                self._step_quota = max(1, self._step_images // 2)
+        if by_time or by_step:
             self._last_image = t
             self._images(t, obs.tensors)
 
@@ -223,6 +247,7 @@ class McapRecorder(EpisodeRecorder):
         self.write_json("/eagc/event", t, {"event": name, **data})
 
     def state(self, t: float, step: int, state_hash: str, state: bytes | None) -> None:
+        self._step = step
         self.write_json("/eagc/state_hash", t, {"step": step, "hash": state_hash})
         if state:
             self.write_raw("/eagc/state", t, state)

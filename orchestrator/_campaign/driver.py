@@ -42,7 +42,17 @@ from orchestrator._campaign.spec import (
     store_path,
 )
 from orchestrator._results.store import REBUILD, StoreDamaged, StoreError
-from schemas import CampaignSpec, EpisodeResult
+from schemas import (
+    CampaignSpec,
+    Committed,
+    EpisodeResult,
+    EpisodeWhere,
+    Finished,
+    Retried,
+    Started,
+    Stopped,
+    Submitted,
+)
 
 log = logging.getLogger("eagc.campaign")
 
@@ -105,7 +115,7 @@ class Driver:
         self.events = Events(self.folder / "events.jsonl")
         self.report = CampaignReport(spec.name, planned=0)
         self.pending: dict[Any, Any] = {}  # ObjectRef → EpisodeJob
-        self.running: dict[str, dict[str, Any]] = {}  # episode id → "started" report
+        self.running: dict[str, Started] = {}  # episode id → its worker's "started" report
         self.finished: set[str] = set()
         self.failed = 0
         self.cancelling = False
@@ -157,8 +167,8 @@ class Driver:
             with ray_connection(self.spec, self.options):
                 self._run(todo)
         self.report.wall_s = time.time() - started
-        self.events.write("finished", committed=self.report.committed,
-                          cancelled=self.report.cancelled, wall_s=self.report.wall_s)
+        self.events.write(Finished(committed=self.report.committed,
+                                   cancelled=self.report.cancelled, wall_s=self.report.wall_s))
         return self.report
 
     def _run(self, todo: list[Any]) -> None:
@@ -180,7 +190,7 @@ class Driver:
                 self.archives[sub.team] = [ray.put(sub.archive.read_bytes())]
         for key in todo:
             self._submit(key, self.store.attempts(self.name, key))
-        self.events.write("submitted", episodes=len(todo), board_node=here)
+        self.events.write(Submitted(episodes=len(todo), board_node=here))
         progress, bar = self._progress(len(todo))
         try:
             with progress:
@@ -269,7 +279,8 @@ class Driver:
         from orchestrator._results.store import EpisodeKey
 
         for ref, job in list(self.pending.items()):
-            node = self.running.get(job.episode, {}).get("node")
+            started = self.running.get(job.episode)
+            node = None if started is None else started.node
             if node not in dead:
                 continue
             self.pending.pop(ref)
@@ -278,8 +289,8 @@ class Driver:
             self.metrics.set_running(len(self.running))
             ray.cancel(ref, force=True)
             key = EpisodeKey(job.submission, job.split, job.index)
-            where = {"submission": job.submission, "split": job.split, "index": job.index,
-                     "retry": job.retry, "episode": job.episode}
+            where = EpisodeWhere(submission=job.submission, split=job.split, index=job.index,
+                                 retry=job.retry, episode=job.episode)
             message = f"NodeDiedError: the node running the episode ({node[:12]}) was lost"
             try:
                 # No cleanup through Ray: the node cannot be reached. Its containers lose
@@ -301,11 +312,12 @@ class Driver:
             log.warning("the progress board is gone (%s); starting a new one", e)
             self.board = ProgressBoard.remote()
             return
-        for ev in events:
-            if ev["episode"] in self.finished:
+        for raw in events:
+            ev = Started.model_validate(raw)
+            if ev.episode in self.finished:
                 continue
-            self.running[ev["episode"]] = ev
-            self.events.write("started", **{k: v for k, v in ev.items() if k != "at"})
+            self.running[ev.episode] = ev
+            self.events.write(ev.model_copy(update={"at": time.time()}))
         self.metrics.set_running(len(self.running))
 
     def _reaped(self, n: int) -> None:
@@ -326,8 +338,8 @@ class Driver:
         if self.broken is not None:  # the result stays in its folder: rebuild-store finds it
             return
         key = EpisodeKey(job.submission, job.split, job.index)
-        where = {"submission": job.submission, "split": job.split, "index": job.index,
-                 "retry": job.retry, "episode": job.episode}
+        where = EpisodeWhere(submission=job.submission, split=job.split, index=job.index,
+                             retry=job.retry, episode=job.episode)
         result: EpisodeResult | None = None
         node: str | None = None
         crashed = False
@@ -356,7 +368,7 @@ class Driver:
             self.metrics.store_error()
             raise
 
-    def _record(self, job: Any, key: Any, where: dict[str, Any], result: EpisodeResult | None,
+    def _record(self, job: Any, key: Any, where: EpisodeWhere, result: EpisodeResult | None,
                 node: str | None, crashed: bool, message: str, *, reach: bool = True) -> None:
         from orchestrator._campaign.fanout import cleanup_nodes
 
@@ -371,8 +383,9 @@ class Driver:
                 self.metrics.episode_finished(job.submission, result)
             else:
                 self.report.duplicates += 1
-            self.events.write("committed" if new else "duplicate", **where, node=node,
-                              status=result.status.value, score=result.score.total)
+            self.events.write(Committed(**where.model_dump(), node=node,
+                                        event="committed" if new else "duplicate",
+                                        status=result.status.value, score=result.score.total))
             self._update_states()
             return
         # An infrastructure failure: record it, then retry or quarantine.
@@ -386,14 +399,15 @@ class Driver:
         if job.retry < self.spec.retries:
             self.report.retries += 1
             self.metrics.episode_retried(job.submission)
-            self.events.write("retry", **where, node=node, message=message)
+            self.events.write(Retried(**where.model_dump(), node=node, message=message))
             self._submit(key, job.retry + 1)
         else:
             self.report.quarantined += 1
             self.store.quarantine(self.name, key, episode=job.episode, message=message,
                                   retries=job.retry)
             self.metrics.episode_quarantined(job.submission)
-            self.events.write("quarantined", **where, node=node, message=message)
+            self.events.write(Retried(**where.model_dump(), node=node, message=message,
+                                      event="quarantined"))
             self.console.print(f"[red]quarantined {key}[/]: {message}")
         self._update_states()
 
@@ -418,7 +432,7 @@ class Driver:
         if self.broken is None:
             self.console.print(f"[yellow]cancelling {len(self.pending)} episode(s); committed "
                                "results are kept, run the campaign again to resume[/]")
-        self.events.try_write("cancelled", pending=len(self.pending))
+        self.events.try_write(Stopped(pending=len(self.pending)))
         # Ray's cancel races with a task's own reply (its core worker then aborts the whole
         # process: "Tried to complete task that was not pending"): cancel only tasks not
         # known to be done, once each, and never force-kill one that may be finishing. A
@@ -457,8 +471,8 @@ class Driver:
         self.broken = fault
         lost = isinstance(fault, ClusterLost)
         code = EXIT_CLUSTER if lost else EXIT_STORE
-        self.events.try_write("failed", reason="cluster" if lost else "store",
-                              message=str(fault), pending=len(self.pending))
+        self.events.try_write(Stopped(event="failed", reason="cluster" if lost else "store",
+                                      message=str(fault), pending=len(self.pending)))
         if lost:
             # No Ray to ask: this node's containers through the engine; other nodes' are
             # bounded by their episode watchers (no heartbeat: removed within a minute).

@@ -19,19 +19,26 @@ A damaged store file may have held other campaigns too: rebuild each of them the
 
 from __future__ import annotations
 
-import json
 import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from orchestrator._results.store import (
     EpisodeKey,
     ResultsStore,
     StoreDamaged,
 )
-from schemas import CampaignSpec, EpisodeResult
+from schemas import (
+    CampaignEvent,
+    CampaignSpec,
+    Committed,
+    EpisodeResult,
+    EpisodeWhere,
+    Retried,
+    Started,
+    parse_event,
+)
 
 
 @dataclass
@@ -49,24 +56,17 @@ class RebuildReport:
     unreadable: list[str] = field(default_factory=list)  # result.json that did not parse
 
 
-def read_events(path: Path) -> list[dict[str, Any]]:
+def read_events(path: Path) -> list[CampaignEvent]:
     """``events.jsonl``; a line cut short (a full disk, a kill) is skipped."""
     if not path.exists():
         return []
-    out = []
-    for line in path.read_text(errors="replace").splitlines():
-        try:
-            ev = json.loads(line)
-        except ValueError:
-            continue
-        if isinstance(ev, dict) and "event" in ev:
-            out.append(ev)
-    return out
+    lines = path.read_text(errors="replace").splitlines()
+    return [ev for ev in map(parse_event, lines) if ev is not None]
 
 
-def committed_episodes(events: list[dict[str, Any]]) -> set[str]:
+def committed_episodes(events: list[CampaignEvent]) -> set[str]:
     """Episode ids ``events.jsonl`` says were committed."""
-    return {str(e["episode"]) for e in events if e["event"] == "committed" and "episode" in e}
+    return {e.episode for e in events if isinstance(e, Committed) and e.event == "committed"}
 
 
 def _move_aside(path: Path) -> Path:
@@ -98,18 +98,19 @@ def rebuild_store(spec: CampaignSpec, folder: Path, store_file: Path, *, commitm
                   planned: int) -> RebuildReport:
     """Rebuilds (or completes) ``spec``'s rows in ``store_file`` from ``folder``."""
     events = read_events(folder / "events.jsonl")
-    where: dict[str, dict[str, Any]] = {}
+    where: dict[str, EpisodeWhere] = {}
+    node: dict[str, str | None] = {}
     for ev in events:
-        if "episode" in ev and "submission" in ev:
-            where.setdefault(str(ev["episode"]), {}).update(
-                {k: ev[k] for k in ("submission", "split", "index", "retry", "node") if k in ev})
+        if isinstance(ev, Started | Committed | Retried):
+            where[ev.episode] = ev
+            node[ev.episode] = ev.node or node.get(ev.episode)
     named = committed_episodes(events)
 
     store, aside = open_or_replace(store_file)
     report = RebuildReport(store_file, moved_aside=aside)
     with store:
         store.register(spec, commitment, planned)
-        finals: dict[EpisodeKey, list[tuple[bool, float, EpisodeResult, dict[str, Any]]]] = {}
+        finals: dict[EpisodeKey, list[tuple[bool, float, EpisodeResult, EpisodeWhere]]] = {}
         seen_attempts: set[str] = set()
         for path in sorted(folder.glob("ep*/host/result.json")):
             try:
@@ -119,15 +120,15 @@ def rebuild_store(spec: CampaignSpec, folder: Path, store_file: Path, *, commitm
                 continue
             report.results_read += 1
             info = where.get(result.episode)
-            if info is None or not {"submission", "split", "index"} <= info.keys():
+            if info is None:
                 report.unattributed.append(result.episode)
                 continue
-            key = EpisodeKey(info["submission"], info["split"], int(info["index"]))
+            key = EpisodeKey(info.submission, info.split, info.index)
             if result.status.failure_kind == "infra":
                 message = result.failure.message if result.failure else "infrastructure failure"
-                store.record_attempt(spec.name, key, retry=int(info.get("retry", 0)),
+                store.record_attempt(spec.name, key, retry=info.retry,
                                      episode=result.episode, message=message,
-                                     node=info.get("node"), result=result,
+                                     node=node.get(result.episode), result=result,
                                      at=result.finished_at)
                 seen_attempts.add(result.episode)
                 continue
@@ -136,30 +137,27 @@ def rebuild_store(spec: CampaignSpec, folder: Path, store_file: Path, *, commitm
         for key, candidates in finals.items():
             candidates.sort(key=lambda c: (c[0], c[1]))
             _, at, result, info = candidates[0]
-            if store.commit(spec.name, key, result, retry=int(info.get("retry", 0)),
-                            node=info.get("node"), at=at):
+            if store.commit(spec.name, key, result, retry=info.retry,
+                            node=node.get(result.episode), at=at):
                 report.committed += 1
             else:
                 report.already += 1
         # Attempts whose worker died: only the driver's "retry"/"quarantined" events tell.
-        last_word: dict[EpisodeKey, dict[str, Any]] = {}
+        last_word: dict[EpisodeKey, Retried] = {}
         for ev in events:
-            if ev["event"] not in ("retry", "quarantined") or "episode" not in ev:
+            if not isinstance(ev, Retried):
                 continue
-            key = EpisodeKey(ev["submission"], ev["split"], int(ev["index"]))
-            if ev["episode"] not in seen_attempts:
-                store.record_attempt(spec.name, key, retry=int(ev.get("retry", 0)),
-                                     episode=str(ev["episode"]),
-                                     message=str(ev.get("message", "")), node=ev.get("node"),
-                                     result=None, at=float(ev.get("at", time.time())))
-                seen_attempts.add(str(ev["episode"]))
+            key = EpisodeKey(ev.submission, ev.split, ev.index)
+            if ev.episode not in seen_attempts:
+                store.record_attempt(spec.name, key, retry=ev.retry, episode=ev.episode,
+                                     message=ev.message, node=ev.node, result=None, at=ev.at)
+                seen_attempts.add(ev.episode)
             last_word[key] = ev
         done = store.done(spec.name)
         for key, ev in last_word.items():
-            if ev["event"] == "quarantined" and key not in done:
-                store.quarantine(spec.name, key, episode=str(ev["episode"]),
-                                 message=str(ev.get("message", "")),
-                                 retries=int(ev.get("retry", 0)))
+            if ev.event == "quarantined" and key not in done:
+                store.quarantine(spec.name, key, episode=ev.episode, message=ev.message,
+                                 retries=ev.retry)
                 report.quarantined += 1
         store.retally()
         report.attempts = store.counts(spec.name)["retries"]

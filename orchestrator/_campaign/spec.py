@@ -48,7 +48,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from orchestrator._errors import OrchestratorError
-from schemas import CampaignSpec, SchemaError, parse_json
+from schemas import CampaignEvent, CampaignSpec, SchemaError, event_line, parse_json
 
 log = logging.getLogger("eagc.campaign")
 
@@ -197,21 +197,21 @@ class Events:
         self.path = path
         self._f: IO[str] = path.open("a")
 
-    def write(self, kind: str, **data: Any) -> None:
+    def write(self, event: CampaignEvent) -> None:
         """Appends one event; StoreWriteError if it could not be written (a full disk):
         ``rebuild-store`` needs these lines as much as the store needs its rows."""
         from orchestrator._results.store import StoreWriteError
 
         try:
-            self._f.write(json.dumps({"event": kind, "at": time.time(), **data}) + "\n")
+            self._f.write(event_line(event))
             self._f.flush()
         except OSError as e:
             raise StoreWriteError(f"could not write {self.path}: {e.strerror or e}") from None
 
-    def try_write(self, kind: str, **data: Any) -> None:
+    def try_write(self, event: CampaignEvent) -> None:
         """``write`` on the way out of a failed campaign: a failure is only logged."""
         try:
-            self.write(kind, **data)
+            self.write(event)
         except Exception as e:  # noqa: BLE001
             log.warning("%s", e)
 

@@ -5,6 +5,7 @@ retry for a fault that was not on its own node."""
 
 from __future__ import annotations
 
+import os
 import signal
 import sqlite3
 import subprocess
@@ -59,7 +60,7 @@ def test_a_dead_drivers_containers_are_gone_within_a_minute(docker_engine: Any,
     sentinel, with Ray's temp dir, unattended."""
     build_campaign_images(docker_engine, "waiting")
     folder = short_dir("eagc-dd-")
-    name = "dead-driver"
+    name = "dead-driver-" + os.urandom(3).hex()  # unique on a shared engine
     path = write_campaign(folder, name, WAITING, standard=1, challenge=1,
                           limits={"memory_mb": 256, "max_steps_per_stage": 3000})
     proc = _driver(path, ray_tmp, "--workers", "2")
@@ -84,7 +85,7 @@ def test_a_full_disk_stops_the_campaign_cleanly(docker_engine: Any, ray_tmp: Pat
     rebuild-store plus a second run finish the campaign once there is room."""
     build_campaign_images(docker_engine, "waiting")
     folder = short_dir("eagc-df-")
-    name = "disk-full"
+    name = "disk-full-" + os.urandom(3).hex()
     out = folder / "out"
     out.mkdir()
     subprocess.run(["mount", "-t", "tmpfs", "-o", "size=48m", "eagc-test-disk", str(out)],
@@ -130,7 +131,7 @@ def test_losing_the_whole_ray_stops_the_campaign_cleanly(docker_engine: Any,
     was committed, and charges no in-flight episode a retry."""
     build_campaign_images(docker_engine, "waiting")
     folder = short_dir("eagc-rl-")
-    name = "ray-lost"
+    name = "ray-lost-" + os.urandom(3).hex()
     path = write_campaign(folder, name, WAITING, standard=2, challenge=1,
                           limits={"memory_mb": 256, "max_steps_per_stage": 1500})
     proc = _driver(path, ray_tmp, "--workers", "2")
@@ -162,11 +163,12 @@ def test_an_unreachable_cluster_is_one_line_and_exit_6(ray_tmp: Path) -> None:  
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     folder = short_dir("eagc-ua-")
-    path = write_campaign(folder, "unreachable", WAITING, standard=1, challenge=1)
+    name = "unreachable-" + os.urandom(3).hex()
+    path = write_campaign(folder, name, WAITING, standard=1, challenge=1)
     proc = _driver(path, ray_tmp, "--address", f"127.0.0.1:{port}")
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 6, err[-2000:]
     lines = [ln for ln in err.splitlines() if ln.startswith("error:")]
     assert len(lines) == 1 and f"no Ray cluster answers at 127.0.0.1:{port}" in lines[0]
     assert "ray start --head" in lines[0] and "Traceback" not in err
-    assert _rows(folder, "unreachable") == []
+    assert _rows(folder, name) == []

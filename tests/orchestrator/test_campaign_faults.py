@@ -108,7 +108,7 @@ def test_killed_workers_retry_quarantine_and_release(docker_engine: Any, ray_tmp
     the leaderboard holds that final back. ``--retry-quarantined``: committed, exactly once."""
     build_campaign_images(docker_engine, "waiting")
     folder = short_dir("eagc-fw-")
-    name = "kill-worker"
+    name = "kill-worker-" + os.urandom(3).hex()  # unique on a shared engine
     # ~4 s episodes: 20 steps of 0.1 s in each of the two stages.
     path = write_campaign(folder, name, WAITING, standard=2, challenge=1, retries=1,
                           limits={"memory_mb": 256, "max_steps_per_stage": 20})
@@ -172,7 +172,7 @@ def test_killed_driver_resumes_without_loss_or_duplicates(docker_engine: Any,
                                                           ray_tmp: Path) -> None:
     build_campaign_images(docker_engine, "waiting")
     folder = short_dir("eagc-fd-")
-    name = "kill-driver"
+    name = "kill-driver-" + os.urandom(3).hex()
     path = write_campaign(folder, name, WAITING, standard=4, challenge=2,
                           limits={"memory_mb": 256, "max_steps_per_stage": 10})
     first = _driver(path, ray_tmp, "--workers", "1")
@@ -205,7 +205,7 @@ def test_ctrl_c_cancels_cleanly(docker_engine: Any, ray_tmp: Path) -> None:
     counted as an infrastructure failure. Started again, the campaign finishes."""
     build_campaign_images(docker_engine, "waiting")
     folder = short_dir("eagc-fc-")
-    name = "ctrl-c"
+    name = "ctrl-c-" + os.urandom(3).hex()
     path = write_campaign(folder, name, WAITING, standard=3, challenge=1,
                           limits={"memory_mb": 256, "max_steps_per_stage": 20})
     proc = _driver(path, ray_tmp, "--workers", "2")

@@ -71,7 +71,7 @@ def _rows(store: Path, name: str) -> list[tuple[Any, ...]]:
 @pytest.mark.parametrize("damage", ["empty", "garbage"])
 def test_a_lost_store_is_refused_then_rebuilt(ray_tmp: Path, damage: str) -> None:
     folder = short_dir("eagc-rb-")
-    name = f"rebuild-{damage}"
+    name = f"rebuild-{damage}-{os.urandom(3).hex()}"
     path = _campaign(folder, name, episodes=3)
     first = _cli(ray_tmp, "run", str(path), "--no-progress")
     assert first.returncode == 0, first.stderr[-3000:]
@@ -110,7 +110,7 @@ def test_embedded_ray_never_attaches_to_another_cluster(ray_tmp: Path) -> None:
     try:
         cluster.start_head(cpus=1, resources={"other_cluster": 1})
         folder = short_dir("eagc-ri-")
-        path = _campaign(folder, "isolated", episodes=1)
+        path = _campaign(folder, "isolated-" + os.urandom(3).hex(), episodes=1)
         r = _cli(ray_tmp, "run", str(path), "--no-progress",
                  env={"RAY_ADDRESS": cluster.address})
         assert r.returncode == 0, r.stderr[-3000:]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -42,14 +43,15 @@ def test_a_worker_running_other_code_runs_nothing(monkeypatch: pytest.MonkeyPatc
 
     monkeypatch.setattr(fanout, "submit", submit)
     folder = short_dir("eagc-vs-")
-    path = write_campaign(folder, "skew", {"team": "python -c pass"}, standard=1,
+    name = "skew-" + os.urandom(3).hex()
+    path = write_campaign(folder, name, {"team": "python -c pass"}, standard=1,
                           challenge=1, retries=1)
     doc = yaml.safe_load(path.read_text())
     path.write_text(yaml.safe_dump({**doc, "runtime": "local"}))
     report = run_campaign(load_campaign(path), CampaignOptions(workers=1, progress=False))
     assert report.committed == 0 and report.quarantined == 2 and report.retries == 2
     events = [json.loads(line) for line in
-              (folder / "out" / "skew" / "events.jsonl").read_text().splitlines()]
+              (folder / "out" / name / "events.jsonl").read_text().splitlines()]
     held = [e for e in events if e.get("event", e.get("kind")) == "quarantined"]
     assert len(held) == 2, events
     for e in held:

@@ -28,6 +28,7 @@ from orchestrator.cli.common import (
     episode_log,
     limits_of,
 )
+from orchestrator.cli.report import REPORT_CODES, report_cmd
 
 app = typer.Typer(
     cls=OneLineErrors,
@@ -44,6 +45,7 @@ app.add_typer(campaign_app, name="campaign")
 app.command("leaderboard", help="Alias of `eagc campaign leaderboard`.")(leaderboard_cmd)
 app.command("status", help="Alias of `eagc campaign status`.")(status_cmd)
 app.command("audit", epilog=AUDIT_CODES)(audit_cmd)
+app.command("report", epilog=REPORT_CODES)(report_cmd)
 # Width: $COLUMNS when set, else the terminal's, else 80 (rich decides at each print).
 console = Console()
 #: Progress and warnings: stderr, so that --json output stays clean.

@@ -1,0 +1,338 @@
+"""One episode folder, read for its page: timeline, frames, path, snapshots, score.
+
+Reads ``host/result.json``, ``host/episode.mcap`` (replies, events, steps, camera frames,
+poses), ``host/output/episode_log.jsonl``, ``host/snapshots/<stage>/*.json`` and
+``host/agent.log``. The team's view (``organizer=False``) keeps what the team may see: no
+seed, no scenario parameters, no organizer path, and of the host's events only their
+name, stage, step and outcome (an exception's type and step, never its subject or place).
+The organizer's view adds the hidden scenario and the track's own picture of the episode.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from orchestrator._viewer import frames as fr
+from schemas import EpisodeResult
+
+#: Lines of the agent's own log shown at the end of the page.
+LOG_TAIL_LINES = 60
+#: Poses kept for the drawn path (evenly thinned beyond it).
+MAX_PATH = 2000
+#: The host event fields a team sees; the rest may tell what the scenario held.
+TEAM_FIELDS = ("stage", "index", "ended_by", "type", "reason", "success", "count", "step")
+#: Changes listed per snapshot file, at most.
+MAX_CHANGES = 200
+
+
+@dataclass(frozen=True)
+class Event:
+    """One line of the timeline: ``source`` is ``host``, ``action`` or ``agent``."""
+
+    step: int
+    source: str
+    name: str
+    text: str
+    stage: str = ""
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """One ``/output`` file as a stage ended, and what changed from the one before."""
+
+    stage: str
+    name: str
+    text: str
+    changes: tuple[str, ...]
+    first: bool
+
+
+@dataclass
+class EpisodeView:
+    """Everything one episode page shows."""
+
+    id: str
+    result: EpisodeResult
+    organizer: bool
+    last_step: int = 0
+    stages: list[dict[str, Any]] = field(default_factory=list)
+    events: list[Event] = field(default_factory=list)
+    frames: list[dict[str, object]] = field(default_factory=list)
+    path: list[list[float]] = field(default_factory=list)
+    map_image: str | None = None
+    #: The map's transform: pixel = (ox + x * scale, oy - y * scale); width, height.
+    map_frame: dict[str, float] | None = None
+    attempts: list[dict[str, Any]] = field(default_factory=list)
+    snapshots: list[Snapshot] = field(default_factory=list)
+    log_tail: str = ""
+    hidden: str | None = None
+    picture: str | None = None
+    problems: list[str] = field(default_factory=list)
+
+
+def read_episode(folder: Path, *, organizer: bool) -> EpisodeView:
+    """The view of the episode in ``folder`` (``<runs>/<episode>``)."""
+    host = folder / "host"
+    result = EpisodeResult.model_validate_json((host / "result.json").read_text())
+    view = EpisodeView(id=result.episode, result=result, organizer=organizer)
+    mcap = host / "episode.mcap"
+    scenario: dict[str, Any] = {}
+    if mcap.is_file():
+        scenario = _read_log(mcap, view)
+    else:
+        view.problems.append("no MCAP log in this episode folder: no frames, no timeline")
+    _agent_log(host, view)
+    _snapshots(host, result, view)
+    _log_tail(host, result, view)
+    if scenario:
+        _map(folder, scenario, view)
+    if organizer and scenario:
+        view.hidden = json.dumps(scenario, indent=2, default=str)
+        _track_picture(folder, result, view)
+    view.events.sort(key=lambda e: (e.step, {"host": 0, "action": 1, "agent": 2}[e.source]))
+    return view
+
+
+# ------------------------------------------------------------------------------ the log
+def _read_log(mcap: Path, view: EpisodeView) -> dict[str, Any]:
+    from mcap.reader import make_reader
+
+    scenario: dict[str, Any] = {}
+    step, stage = 0, ""
+    frames: dict[float, dict[str, Any]] = {}
+    path: list[list[float]] = []
+    attempt_paths: dict[int, list[list[float]]] = {}
+    attempt: int | None = None
+    with mcap.open("rb") as f:
+        for _, channel, message in make_reader(f).iter_messages(log_time_order=True):
+            topic, t = channel.topic, message.log_time
+            if topic.startswith("/eagc/file") or topic == "/eagc/state":
+                continue
+            doc = json.loads(message.data)
+            if topic == "/eagc/scenario":
+                scenario = doc
+            elif topic == "/eagc/state_hash":
+                step = int(doc["step"])
+            elif topic == "/eagc/event":
+                stage = _host_event(doc, step, stage, view)
+            elif topic == "/eagc/reply":
+                stage = doc.get("stage") or stage
+                act = doc.get("action") or {}
+                if act and act.get("ok") is False:
+                    view.events.append(Event(step, "action", "action failed",
+                                             act.get("reason") or "no reason given", stage))
+                obs = doc.get("observation") or {}
+                attempt = (int(obs.get("attempt") or 0) or None) if (
+                    "attempt" in obs and doc.get("stage") == "execution") else None
+            elif topic == "/eagc/observation" and attempt is not None and doc.get("proprio"):
+                attempt_paths.setdefault(attempt, []).append(
+                    [step, *(float(x) for x in doc["proprio"][:3])])
+            elif topic == "/tf":
+                for tr in doc.get("transforms", []):
+                    if tr.get("child_frame_id") == "robot":
+                        p = tr["translation"]
+                        path.append([step, float(p["x"]), float(p["y"])])
+            elif topic.startswith("/camera/"):
+                frames.setdefault(t, {"step": step})[topic[8:]] = doc
+    view.last_step = max(step, view.result.stats.steps)
+    _close_stages(view)
+    while len(path) > MAX_PATH:
+        path = path[::2]
+    view.path = [[s, round(x, 3), round(y, 3)] for s, x, y in path]
+    view.attempts = [{"attempt": k, "from": int(p[0][0]), "to": int(p[-1][0]), "xyz": p}
+                     for k, p in sorted(attempt_paths.items())]
+    view.frames = fr.page_frames([_frame(d) for _, d in sorted(frames.items())])
+    return scenario
+
+
+def _host_event(doc: dict[str, Any], step: int, stage: str, view: EpisodeView) -> str:
+    name = str(doc.get("event", "event"))
+    if name == "stage_start":
+        stage = str(doc.get("stage", ""))
+        view.stages.append({"name": stage, "from": step, "to": None, "ended_by": None})
+    elif name == "stage_end" and view.stages:
+        view.stages[-1].update(to=step, ended_by=doc.get("ended_by"))
+    at = int(doc["step"]) if isinstance(doc.get("step"), int) else step
+    shown = {k: v for k, v in doc.items() if k != "event" and k != "episode"
+             and (view.organizer or k in TEAM_FIELDS)}
+    text = ", ".join(f"{k}: {_short(v)}" for k, v in shown.items() if k != "step")
+    view.events.append(Event(at, "host", name.replace("_", " "), text, stage))
+    return stage
+
+
+def _close_stages(view: EpisodeView) -> None:
+    for k, s in enumerate(view.stages):
+        if s["to"] is None:
+            s["to"] = view.stages[k + 1]["from"] if k + 1 < len(view.stages) else view.last_step
+
+
+def _frame(d: dict[str, Any]) -> fr.Frame:
+    def png(key: str, seg: bool = False) -> np.ndarray | None:
+        doc = d.get(key)
+        if not doc:
+            return None
+        try:
+            return fr.decode_png(base64.b64decode(doc["data"]))
+        except (ValueError, KeyError):
+            return None
+
+    depth = None
+    raw = d.get("depth")
+    if raw and raw.get("encoding") == "32FC1":
+        metres = np.frombuffer(base64.b64decode(raw["data"]), "<f4")
+        depth = fr.depth_picture(metres.reshape(int(raw["height"]), int(raw["width"])))
+    return fr.Frame(step=int(d["step"]), rgb=png("rgb"), depth=depth,
+                    segmentation=png("segmentation"))
+
+
+def _short(v: Any, limit: int = 160) -> str:
+    text = v if isinstance(v, str) else json.dumps(v, default=str)
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+# ------------------------------------------------------------------ the agent's own files
+def _agent_log(host: Path, view: EpisodeView) -> None:
+    log = host / "output" / "episode_log.jsonl"
+    if not log.is_file():
+        return
+    for line in log.read_text(errors="replace").splitlines()[:5000]:
+        try:
+            rec = json.loads(line)
+            step = int(rec.get("step", 0))
+        except (ValueError, TypeError, AttributeError):
+            continue
+        data = rec.get("data")
+        view.events.append(Event(step, "agent", str(rec.get("event", "record")),
+                                 "" if not data else _short(data), str(rec.get("stage", ""))))
+
+
+def _snapshots(host: Path, result: EpisodeResult, view: EpisodeView) -> None:
+    folder = host / "snapshots"
+    stages = [s for s in result.stages_reached if (folder / s).is_dir()]
+    stages += sorted(p.name for p in folder.glob("*") if p.is_dir() and p.name not in stages)
+    before: dict[str, Any] = {}
+    for stage in stages:
+        for file in sorted((folder / stage).glob("*.json")):
+            try:
+                doc = json.loads(file.read_text())
+            except (ValueError, OSError):
+                view.snapshots.append(Snapshot(stage, file.name, "(not JSON)", (), True))
+                continue
+            first = file.name not in before
+            changes = () if first else tuple(diff(before[file.name], doc))
+            before[file.name] = doc
+            view.snapshots.append(Snapshot(stage, file.name, json.dumps(doc, indent=1),
+                                           changes, first))
+
+
+def diff(old: Any, new: Any, where: str = "") -> list[str]:
+    """What changed from ``old`` to ``new``, one line per changed leaf (JSON paths); lists
+    of objects with an ``id`` are matched by id."""
+    out: list[str] = []
+    _diff(old, new, where, out)
+    if len(out) > MAX_CHANGES:
+        out = [*out[:MAX_CHANGES], f"… and {len(out) - MAX_CHANGES} more"]
+    return out
+
+
+def _keyed(items: list[Any]) -> dict[Any, Any] | None:
+    if items and all(isinstance(i, dict) and "id" in i for i in items):
+        return {i["id"]: i for i in items}
+    return None
+
+
+def _diff(old: Any, new: Any, where: str, out: list[str]) -> None:
+    if isinstance(old, dict) and isinstance(new, dict):
+        for k in [*old, *(k for k in new if k not in old)]:
+            at = f"{where}.{k}" if where else str(k)
+            if k not in new:
+                out.append(f"- {at}")
+            elif k not in old:
+                out.append(f"+ {at}: {_short(new[k], 100)}")
+            else:
+                _diff(old[k], new[k], at, out)
+    elif isinstance(old, list) and isinstance(new, list) and old != new:
+        a, b = _keyed(old), _keyed(new)
+        if a is None or b is None:
+            out.append(f"~ {where}: {len(old)} → {len(new)} items" if len(old) != len(new)
+                       else f"~ {where}: {_short(old, 60)} → {_short(new, 60)}")
+            return
+        for k in [*a, *(k for k in b if k not in a)]:
+            at = f"{where}[id={k}]"
+            if k not in b:
+                out.append(f"- {at}")
+            elif k not in a:
+                out.append(f"+ {at}: {_short(b[k], 100)}")
+            else:
+                _diff(a[k], b[k], at, out)
+    elif old != new:
+        out.append(f"~ {where}: {_short(old, 60)} → {_short(new, 60)}")
+
+
+def _log_tail(host: Path, result: EpisodeResult, view: EpisodeView) -> None:
+    text = ""
+    log = host / "agent.log"
+    if log.is_file():
+        text = log.read_text(errors="replace")
+    elif result.failure is not None:
+        text = result.failure.log_tail
+    view.log_tail = "\n".join(text.rstrip().splitlines()[-LOG_TAIL_LINES:])
+
+
+# ------------------------------------------------------------------------------ pictures
+def _map(folder: Path, scenario: dict[str, Any], view: EpisodeView) -> None:
+    """Track 1: the house from above (the path is drawn over it by the page); Track 2: each
+    attempt beside the demonstration."""
+    try:
+        if scenario.get("track") == "track1":
+            _house(scenario, view)
+        elif scenario.get("track") == "track2" and view.attempts:
+            _attempts(folder, view)
+    except Exception as e:  # noqa: BLE001 - a page without its map is still a page
+        view.problems.append(f"no map: {type(e).__name__}: {e}")
+
+
+def _house(scenario: dict[str, Any], view: EpisodeView) -> None:
+    from plugins.track1 import Track1Scenario
+    from simhost.track1 import TOPDOWN_MARGIN, TOPDOWN_SCALE, generate_house, render_topdown
+
+    spec = Track1Scenario.model_validate(scenario["params"])
+    layout = generate_house(int(scenario["seed"]), params=spec.split.params)
+    img = render_topdown(layout)
+    height = float(layout.extent[1])
+    view.map_image = fr.data_uri(fr.encode_png(np.asarray(img, np.uint8)[:, :, :3]))
+    view.map_frame = {"ox": TOPDOWN_MARGIN, "oy": TOPDOWN_MARGIN + height * TOPDOWN_SCALE,
+                      "scale": TOPDOWN_SCALE, "width": img.shape[1], "height": img.shape[0]}
+
+
+def _attempts(folder: Path, view: EpisodeView) -> None:
+    from simhost.track2 import render_attempt_vs_demo
+
+    demo = folder / "input" / "demo"
+    if not (demo / "manifest.json").is_file():
+        view.problems.append("no demonstration in this episode folder (input/demo)")
+        return
+    for a in view.attempts:
+        xyz = np.asarray([p[1:] for p in a.pop("xyz")])
+        png = render_attempt_vs_demo(demo, xyz, title=f"ATTEMPT {a['attempt']}")
+        a["image"] = fr.data_uri(png)
+
+
+def _track_picture(folder: Path, result: EpisodeResult, view: EpisodeView) -> None:
+    """The track's own picture of the episode (organizers: it marks the hidden goals)."""
+    import tempfile
+
+    from plugins import load_track
+
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            out = load_track(result.track).picture(folder, Path(tmp) / "picture.png")
+            view.picture = fr.data_uri(out.read_bytes())
+    except Exception as e:  # noqa: BLE001 - tracks without pictures, broken logs
+        view.problems.append(f"no track picture: {e}")

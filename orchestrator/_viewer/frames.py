@@ -1,0 +1,139 @@
+"""Camera frames for the page: PNGs from the MCAP log, made into small thumbnails.
+
+The recorder writes PNGs without filters (``simhost._png``) and depth as raw float32; a
+page carries thumbnails at most ``THUMB_WIDTH`` pixels wide, PNG with the "up" filter
+(rendered scenes compress well with it), as ``data:`` URIs, within a byte budget: frames
+are thinned evenly until they fit.
+"""
+
+from __future__ import annotations
+
+import base64
+import struct
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Widest thumbnail on a page, in pixels.
+THUMB_WIDTH = 192
+#: Most frames on one page (the recorder keeps at most 120 by step, plus the timed ones).
+MAX_FRAMES = 120
+#: Bytes of encoded thumbnails one page may carry (base64 adds a third).
+FRAME_BUDGET = 1_100_000
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One logged camera frame at ``step``: pictures as H×W×3 uint8 (None: not logged)."""
+
+    step: int
+    rgb: np.ndarray | None = None
+    depth: np.ndarray | None = None
+    segmentation: np.ndarray | None = None
+
+
+def decode_png(data: bytes) -> np.ndarray:
+    """Pixels of an 8-bit grey, RGB or RGBA PNG whose rows use no filter or "up" (what
+    ``simhost._png`` and this module write); ValueError otherwise."""
+    if data[:8] != b"\x89PNG\r\n\x1a\n":
+        raise ValueError("not a PNG")
+    pos, idat, head = 8, [], b""
+    while pos < len(data):
+        (n,), tag = struct.unpack(">I", data[pos:pos + 4]), data[pos + 4:pos + 8]
+        body = data[pos + 8:pos + 8 + n]
+        if tag == b"IHDR":
+            head = body
+        elif tag == b"IDAT":
+            idat.append(body)
+        pos += 12 + n
+    w, h, depth, colour = struct.unpack(">IIBB", head[:10])
+    channels = {0: 1, 2: 3, 6: 4}.get(colour)
+    if depth != 8 or channels is None:
+        raise ValueError(f"PNG of bit depth {depth}, colour type {colour}: not supported")
+    raw = np.frombuffer(zlib.decompress(b"".join(idat)), np.uint8).reshape(h, 1 + w * channels)
+    rows = raw[:, 1:].copy()
+    for y in range(h):
+        f = raw[y, 0]
+        if f == 2 and y > 0:
+            rows[y] = rows[y] + rows[y - 1]  # uint8 wraps: the "up" filter undone
+        elif f not in (0, 2):
+            raise ValueError(f"PNG row filter {f}: not supported")
+    img = rows.reshape(h, w, channels)
+    return np.repeat(img, 3, axis=2) if channels == 1 else img[:, :, :3]
+
+
+def encode_png(img: np.ndarray) -> bytes:
+    """A compact PNG of an H×W×3 uint8 picture (every row "up"-filtered, zlib level 9)."""
+    h, w, c = img.shape
+    rows = np.ascontiguousarray(img, np.uint8).reshape(h, w * c)
+    up = rows.copy()
+    up[1:] = rows[1:] - rows[:-1]
+    raw = np.empty((h, 1 + w * c), np.uint8)
+    raw[:, 0] = 2
+    raw[:, 1:] = up
+
+    def chunk(tag: bytes, body: bytes) -> bytes:
+        return (struct.pack(">I", len(body)) + tag + body
+                + struct.pack(">I", zlib.crc32(tag + body)))
+
+    return b"".join([b"\x89PNG\r\n\x1a\n",
+                     chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)),
+                     chunk(b"IDAT", zlib.compress(raw.tobytes(), 9)), chunk(b"IEND", b"")])
+
+
+def depth_picture(metres: np.ndarray) -> np.ndarray:
+    """Depth as grey, stretched over the frame's range: near light, far dark, black where
+    nothing was seen."""
+    d = np.asarray(metres, np.float32)
+    seen = np.isfinite(d) & (d > 0)
+    near, far = (np.percentile(d[seen], [1, 99]) if seen.any() else (0.0, 1.0))
+    scaled = np.clip((d - near) / max(float(far - near), 1e-6), 0, 1)
+    grey = np.where(seen, 245 - scaled * 205, 0).astype(np.uint8)
+    return np.repeat(grey[:, :, None], 3, axis=2)
+
+
+def thumbnail(img: np.ndarray, *, smooth: bool = True) -> np.ndarray:
+    """``img`` shrunk by a whole factor to at most ``THUMB_WIDTH`` wide (a block mean, or
+    every k-th pixel where colours are labels, as in segmentation)."""
+    k = -(-img.shape[1] // THUMB_WIDTH)
+    if k <= 1:
+        return img
+    if not smooth:
+        return img[::k, ::k]
+    h, w = img.shape[0] // k * k, img.shape[1] // k * k
+    blocks = img[:h, :w].reshape(h // k, k, w // k, k, -1).astype(np.float32)
+    return blocks.mean(axis=(1, 3)).round().astype(np.uint8)
+
+
+def data_uri(png: bytes) -> str:
+    return "data:image/png;base64," + base64.b64encode(png).decode()
+
+
+def page_frames(frames: list[Frame], budget: int = FRAME_BUDGET) -> list[dict[str, object]]:
+    """The frames as the page carries them (``step`` and a ``data:`` URI per picture),
+    evenly thinned to ``MAX_FRAMES`` and to ``budget`` encoded bytes; first and last kept."""
+    by_step = {f.step: f for f in frames}  # the last frame of a step stands for it
+    chosen = [by_step[s] for s in sorted(by_step)]
+    while len(chosen) > MAX_FRAMES:
+        chosen = chosen[::2] if chosen[-1] is chosen[::2][-1] else [*chosen[::2], chosen[-1]]
+    encoded = [_encode(f) for f in chosen]
+    while len(encoded) > 2 and sum(n for _, n in encoded) > budget:
+        keep = list(range(0, len(encoded), 2))
+        if keep[-1] != len(encoded) - 1:
+            keep.append(len(encoded) - 1)
+        encoded = [encoded[i] for i in keep]
+    return [e for e, _ in encoded]
+
+
+def _encode(f: Frame) -> tuple[dict[str, object], int]:
+    out: dict[str, object] = {"step": f.step}
+    size = 0
+    for name, img, smooth in (("rgb", f.rgb, True), ("depth", f.depth, True),
+                              ("segmentation", f.segmentation, False)):
+        if img is None:
+            continue
+        png = encode_png(thumbnail(img, smooth=smooth))
+        size += len(png)
+        out[name] = data_uri(png)
+    return out, size

@@ -1,0 +1,133 @@
+"""Writes the static site: an index, a page per team and a page per episode.
+
+    <out>/index.html             the leaderboard (or, with a team, that team's page)
+    <out>/teams/<team>.html      a team's episodes, each linked
+    <out>/episodes/<id>.html     one episode (``write_episode_site``: <out>/index.html)
+
+Pages are self-contained: styles, script and pictures (``data:`` URIs) are inside them,
+nothing is fetched, so they open from disk. The templates are Jinja2 (package data under
+``templates/``), autoescaped.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from orchestrator._errors import UsageError
+from orchestrator._results.leaderboard import CI_KEY, LEGEND, Leaderboard
+from orchestrator._viewer.episode import EpisodeView, read_episode
+from plugins import Column
+from schemas import CampaignSpec, EpisodeResult
+
+
+def _env() -> Any:
+    from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+
+    env = Environment(loader=PackageLoader("orchestrator._viewer", "templates"),
+                      autoescape=select_autoescape(["html"]), undefined=StrictUndefined,
+                      trim_blocks=True, lstrip_blocks=True)
+    env.filters["pct"] = lambda v: "—" if v is None else f"{100 * v:.1f}"
+    env.filters["num"] = lambda v: "—" if v is None else f"{v:.3g}"
+    return env
+
+
+def slug(name: str) -> str:
+    """A file name for a team: its name with anything but ``[A-Za-z0-9._-]`` as ``_``."""
+    return re.sub(r"[^A-Za-z0-9._-]", "_", name) or "_"
+
+
+def _write(path: Path, text: str) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def episode_page(view: EpisodeView, *, back: str | None, back_text: str) -> str:
+    """The HTML of one episode's page."""
+    data = {"last_step": view.last_step, "stages": view.stages, "frames": view.frames,
+            "path": view.path, "map": view.map_frame, "attempts": view.attempts}
+    return _env().get_template("episode.html").render(
+        v=view, r=view.result, data=data, back=back, back_text=back_text)
+
+
+def write_episode_site(folder: Path, out: Path, *, organizer: bool = False) -> list[Path]:
+    """One episode's page as ``out/index.html``; returns the pages written."""
+    view = read_episode(folder, organizer=organizer)
+    return [_write(out / "index.html", episode_page(view, back=None, back_text=""))]
+
+
+def _columns(board: Leaderboard) -> list[Column]:
+    at = next(i for i, c in enumerate(board.columns) if c.key == "final")
+    return [*board.columns[: at + 1], Column(CI_KEY, "95% CI"), *board.columns[at + 1:]]
+
+
+def _episode_row(result: EpisodeResult, index: int, page: str | None) -> dict[str, Any]:
+    return {"split": result.split, "index": index, "status": result.status.value,
+            "score": result.score.total, "components": result.score.components,
+            "page": page, "stage": (result.stages_reached or ["none"])[-1]}
+
+
+def write_campaign_site(spec: CampaignSpec, store: Any, out: Path, *, team: str | None = None,
+                        organizer: bool = False,
+                        say: Callable[[str], None] = lambda _m: None) -> list[Path]:
+    """The site of a campaign from ``store`` (a ResultsStore); only ``team``'s pages when
+    given (its page is then the index). Returns the pages written."""
+    from orchestrator._results.leaderboard import build_leaderboard
+
+    board = build_leaderboard(spec, store)
+    teams = [r.team for r in board.rows]
+    if team is not None and team not in teams:
+        import difflib
+
+        hint = difflib.get_close_matches(team, teams, n=1, cutoff=0.5)
+        did = f" Did you mean {hint[0]!r}?" if hint else ""
+        raise UsageError(f"campaign {spec.name!r} has no team {team!r}.{did}")
+    env = _env()
+    stored = store.results(spec.name)
+    held = store.quarantined(spec.name)
+    order = {s.name: i for i, s in enumerate(spec.splits)}
+    written: list[Path] = []
+    cols = _columns(board)
+    for row in board.rows:
+        if team is not None and row.team != team:
+            continue
+        mine = sorted((e for e in stored if e.key.submission == row.team),
+                      key=lambda e: (order.get(e.key.split, 99), e.key.index))
+        episodes = []
+        components: list[str] = []
+        for e in mine:
+            page = None
+            folder = Path(e.result.episode_dir) if e.result.episode_dir else None
+            if folder is not None and (folder / "host" / "result.json").is_file():
+                say(f"{row.team}: {e.key.split}/{e.key.index}")
+                view = read_episode(folder, organizer=organizer)
+                up = "../index.html" if team is not None else f"../teams/{slug(row.team)}.html"
+                written.append(_write(out / "episodes" / f"{view.id}.html", episode_page(
+                    view, back=up, back_text=f"{row.team} in {spec.name}")))
+                page = f"episodes/{view.id}.html"
+            episodes.append(_episode_row(e.result, e.key.index, page))
+            components += [c for c in e.result.score.components if c not in components]
+        quarantined = [{"split": q.key.split, "index": q.key.index} for q in held
+                       if q.key.submission == row.team]
+        html = env.get_template("team.html").render(
+            spec=spec, board=board, row=row, cells=[(c.title, board.cell(row, c))
+                                                    for c in cols],
+            episodes=episodes, components=components, quarantined=quarantined,
+            organizer=organizer, root="" if team is not None else "../",
+            back=None if team is not None else "../index.html")
+        written.append(_write(out / "index.html" if team is not None
+                              else out / "teams" / f"{slug(row.team)}.html", html))
+    if team is None:
+        rows = [{"rank": r.rank, "ranks": r.ranks, "team": r.team,
+                 "page": f"teams/{slug(r.team)}.html",
+                 "cells": [board.cell(r, c) for c in cols],
+                 "episodes": f"{r.episodes}/{r.planned}"} for r in board.rows]
+        html = env.get_template("index.html").render(
+            spec=spec, board=board, titles=[c.title for c in cols], rows=rows,
+            legend=LEGEND, organizer=organizer, failures=board.failures)
+        written.append(_write(out / "index.html", html))
+    return written
+

@@ -1,0 +1,334 @@
+"""``eagc report``: the episode viewer's static pages, checked in a real headless Chromium.
+
+A local sanity campaign (two teams, agents as plain processes, the overhead camera on) and
+one Track 1 episode at a large camera resolution are run through the real worker; the
+pages are written from the results store and the episode folders, then opened from disk
+by Debian's ``chromium`` (``tests/orchestrator/_chromium.py``): no page logs a console
+error, the scrubber changes the shown frame and step, a team's pages hold no other team
+and nothing of the hidden scenario, and the organizer's view does. One screenshot per page
+type is kept under pytest's temporary folder (the paths are printed).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from _chromium import Browser, chromium
+from typer.testing import CliRunner
+
+from orchestrator._campaign.seeds import commitment, load_secret, seed_list
+from orchestrator._campaign.spec import campaign_dir, load_campaign, plan, store_path
+from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._results.leaderboard import build_leaderboard
+from orchestrator._results.store import ResultsStore
+from orchestrator._runtimes.local import LocalProcessRuntime
+from orchestrator._viewer import write_campaign_site, write_episode_site
+from orchestrator._viewer.episode import diff
+from orchestrator._viewer.frames import decode_png, encode_png
+from orchestrator.cli.main import app
+from schemas import CampaignSpec, EpisodeStatus, Limits
+
+ROOT = Path(__file__).resolve().parents[2]
+SANITY = f"python {ROOT / 'examples' / 'sanity_agent' / 'agent.py'}"
+TRACK1 = f"python {ROOT / 'examples' / 'track1_heuristic' / 'agent.py'}"
+TEAMS = ("team-alpha", "team-bravo")
+CAMERA = {"render_rgbd": True, "image_size": [96, 72]}
+#: A Track 1 episode page's ceiling, at the larger camera resolution below.
+PAGE_LIMIT = 2 * 2**20
+TRACK1_CAMERA = {"image_size": [640, 480]}
+TRACK1_SEED = 7_340_212_881  # long: it must not turn up by chance
+
+
+@dataclass
+class Campaign:
+    spec: CampaignSpec
+    path: Path
+    seeds: list[int]
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Browser]:
+    binary = chromium()
+    if binary is None:
+        msg = "chromium is not installed (apt-get install chromium)"
+        if os.environ.get("CI"):
+            pytest.fail(msg)
+        pytest.skip(msg)
+    b = Browser(binary)
+    try:
+        yield b
+    finally:
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def shots(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("viewer-screenshots")
+
+
+@pytest.fixture(scope="module")
+def campaign() -> Campaign:
+    folder = Path(tempfile.mkdtemp(prefix="eagc-vw-", dir="/tmp"))  # short: unix sockets
+    name = "viewer-ci"
+    doc = {"name": name, "track": "sanity", "phase": "local", "runtime": "local",
+           "splits": [{"name": "standard", "weight": 0.6, "episodes": 1, "params": CAMERA},
+                      {"name": "challenge", "weight": 0.4, "episodes": 1, "params": CAMERA}],
+           "submissions": [{"team": t, "image": SANITY} for t in TEAMS],
+           "limits": {"max_steps_per_stage": 400, "startup_s": 60.0, "pin_cpus": False},
+           "retries": 0, "output": str(folder / "out")}
+    path = folder / "campaign.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    spec = load_campaign(path)
+    seeds = seed_list(spec, load_secret(spec))
+    by_key = {(s.split, s.index): s.seed for s in seeds}
+    params = {s.name: s.params for s in spec.splits}
+    runs = campaign_dir(spec)
+    runs.mkdir(parents=True, mode=0o700)
+    with ResultsStore(store_path(spec)) as store:
+        keys = plan(spec)
+        store.register(spec, commitment(spec, seeds), len(keys))
+        for key in keys:
+            result = run_episode(EpisodeSpec(
+                track="sanity", image=SANITY, seed=by_key[(key.split, key.index)],
+                split=key.split, params=params[key.split], limits=spec.limits,
+                runs_dir=runs, index=key.index,
+                labels={"campaign": name, "submission": key.submission}),
+                LocalProcessRuntime(quiet=True))
+            assert result.status is EpisodeStatus.COMPLETED, (key, result.failure)
+            store.commit(name, key, result, retry=0, node=None)
+    return Campaign(spec, path, [s.seed for s in seeds])
+
+
+@pytest.fixture(scope="module")
+def track1_episode() -> Path:
+    runs = Path(tempfile.mkdtemp(prefix="eagc-vw-", dir="/tmp"))
+    result = run_episode(EpisodeSpec(
+        track="track1", image=TRACK1, seed=TRACK1_SEED, split="challenge", params=TRACK1_CAMERA,
+        limits=Limits(max_steps_per_stage=80, time_scale=0.3, startup_s=60.0,
+                      pin_cpus=False), runs_dir=runs), LocalProcessRuntime(quiet=True))
+    assert result.status is EpisodeStatus.COMPLETED, result.failure
+    assert result.episode_dir is not None
+    return Path(result.episode_dir)
+
+
+def _hidden_values(episode_dir: Path) -> set[str]:
+    """Strings of the hidden scenario that no team page may hold: its seed, and every
+    number of its parameters written as the log writes it."""
+    from mcap.reader import make_reader
+
+    with (episode_dir / "host" / "episode.mcap").open("rb") as f:
+        scenario = next(json.loads(m.data) for _, _, m in make_reader(f).iter_messages(
+            topics=["/eagc/scenario"]))
+    found = {str(scenario["seed"])}
+
+    def walk(v: Any) -> None:
+        if isinstance(v, dict):
+            for x in v.values():
+                walk(x)
+        elif isinstance(v, list):
+            for x in v:
+                walk(x)
+        elif isinstance(v, float) and len(repr(v)) > 6:
+            found.add(json.dumps(v))
+
+    walk(scenario.get("params"))
+    return found
+
+
+def _store(campaign: Campaign) -> ResultsStore:
+    return ResultsStore(store_path(campaign.spec))
+
+
+def _leaks(hidden: set[str], text: str) -> list[str]:
+    return [h for h in hidden if re.search(rf"(?<![\d.]){re.escape(h)}(?!\d)", text)]
+
+
+def _pages(folder: Path) -> list[Path]:
+    return sorted(folder.rglob("*.html"))
+
+
+def _site(campaign: Campaign, out: Path, **kw: Any) -> list[Path]:
+    with _store(campaign) as store:
+        return write_campaign_site(campaign.spec, store, out, **kw)
+
+
+def _open_all(browser: Browser, folder: Path) -> None:
+    for page in _pages(folder):
+        errors = browser.open(page.as_uri())
+        assert not errors, f"{page}: {errors}"
+
+
+# --------------------------------------------------------------------------- pure parts
+def test_snapshot_changes_name_what_changed() -> None:
+    old = {"rooms": [{"id": 1, "type": "hall"}], "doors": [{"id": 3, "state": "open"}],
+           "step": 4}
+    new = {"rooms": [{"id": 1, "type": "hall"}, {"id": 2, "type": "kitchen"}],
+           "doors": [{"id": 3, "state": "closed"}], "step": 9}
+    assert diff(old, new) == ['+ rooms[id=2]: {"id": 2, "type": "kitchen"}',
+                              "~ doors[id=3].state: open → closed", "~ step: 4 → 9"]
+
+
+def test_thumbnails_round_trip() -> None:
+    import numpy as np
+
+    img = (np.arange(48 * 64 * 3) % 251).astype(np.uint8).reshape(48, 64, 3)
+    assert (decode_png(encode_png(img)) == img).all()
+
+
+# ------------------------------------------------------------------------- the campaign
+@pytest.mark.slow
+def test_the_index_is_the_leaderboard_with_every_team_linked(
+        campaign: Campaign, browser: Browser, shots: Path, tmp_path: Path) -> None:
+    out = tmp_path / "site"
+    _site(campaign, out)
+    with _store(campaign) as store:
+        board = build_leaderboard(campaign.spec, store)
+    _open_all(browser, out)
+    browser.open((out / "index.html").as_uri())
+    rows = browser.evaluate("Array.from(document.querySelectorAll('tr.team-row')).map("
+                            "r => Array.from(r.cells).map(c => c.textContent.trim()))")
+    assert [r[2] for r in rows] == [r.team for r in board.rows]
+    assert [r[1] for r in rows] == [r.ranks for r in board.rows]
+    assert [r.ci for r in board.rows][0] in rows[0]
+    links = browser.evaluate("Array.from(document.querySelectorAll('tr.team-row a'))"
+                             ".map(a => a.getAttribute('href'))")
+    assert all((out / link).is_file() for link in links) and len(links) == len(TEAMS)
+    print(f"\nscreenshot (index): {browser.screenshot(shots / 'index.png')}")
+    browser.open((out / links[0]).as_uri())
+    episodes = browser.evaluate("Array.from(document.querySelectorAll('#episodes a'))"
+                                ".map(a => a.href)")
+    assert len(episodes) == 2
+    heads = browser.evaluate("Array.from(document.querySelectorAll('#episodes th'))"
+                             ".map(c => c.textContent)")
+    with _store(campaign) as store:
+        components = set(store.results(campaign.spec.name)[0].result.score.components)
+    assert {"Episode", "Verdict", "Score", *components} <= set(heads)
+    print(f"screenshot (team): {browser.screenshot(shots / 'team.png')}")
+
+
+@pytest.mark.slow
+def test_a_team_sees_only_itself_and_no_hidden_scenario(
+        campaign: Campaign, browser: Browser, tmp_path: Path) -> None:
+    out = tmp_path / "alpha"
+    pages = _site(campaign, out,
+                                team=TEAMS[0])
+    assert set(pages) == set(_pages(out)) and (out / "index.html") in pages
+    with _store(campaign) as store:
+        stored = store.results(campaign.spec.name)
+    other = {e.result.episode for e in stored if e.key.submission != TEAMS[0]}
+    hidden = set().union(*(_hidden_values(Path(e.result.episode_dir or "")) for e in stored))
+    hidden |= {str(s) for s in campaign.seeds}
+    for page in pages:
+        text = page.read_text()
+        assert TEAMS[1] not in text, page
+        assert not [e for e in other if e in text], page
+        leaked = _leaks(hidden, text)
+        assert not leaked, (page, leaked[:5])
+        assert "hidden-scenario" not in text and "/tmp/" not in text, page
+    _open_all(browser, out)
+    # The organizer's view of the same team holds the scenario.
+    org = tmp_path / "org"
+    _site(campaign, org,
+                        team=TEAMS[0], organizer=True)
+    episode = next(p for p in _pages(org) if p.parent.name == "episodes")
+    assert "hidden-scenario" in episode.read_text()
+    _open_all(browser, org)
+
+
+@pytest.mark.slow
+def test_the_scrubber_changes_the_shown_frame_and_step(
+        campaign: Campaign, browser: Browser, tmp_path: Path) -> None:
+    out = tmp_path / "site"
+    _site(campaign, out,
+                        team=TEAMS[1])
+    page = next(p for p in _pages(out) if p.parent.name == "episodes")
+    data = json.loads(re.search(r'id="episode-data">(.*?)</script>', page.read_text(),
+                                re.S).group(1))
+    steps = [f["step"] for f in data["frames"]]
+    assert len(steps) >= 4, "frames by step: the scrubber covers the episode"
+    assert steps[-1] >= data["last_step"] - 10
+    shown = []
+    for want in (steps[1], steps[-2]):
+        assert not browser.open(f"{page.as_uri()}?step={want}")
+        got = browser.evaluate("[document.body.dataset.step, document.body.dataset.frameStep,"
+                               " document.getElementById('frame-rgb').src,"
+                               " document.getElementById('step-label').textContent]")
+        assert got[0] == got[3] == got[1] == str(want)
+        shown.append(got[2])
+    assert shown[0] != shown[1] and shown[0].startswith("data:image/png;base64,")
+    # Moving the slider as a user does.
+    between = (steps[1] + steps[2]) // 2 if steps[2] - steps[1] > 1 else steps[1]
+    got = browser.evaluate(
+        f"(() => {{ const s = document.getElementById('step'); s.value = '{between}';"
+        " s.dispatchEvent(new Event('input')); return [document.body.dataset.step,"
+        " document.body.dataset.frameStep, document.getElementById('path').dataset.points];"
+        " })()")
+    assert got[:2] == [str(between), str(steps[1])] and int(got[2]) > 0
+
+
+@pytest.mark.slow
+def test_the_command_line(campaign: Campaign, tmp_path: Path) -> None:
+    runner = CliRunner()
+    got = runner.invoke(app, ["report", str(campaign.path), "--out", str(tmp_path / "a")])
+    assert got.exit_code == 0, got.output
+    assert (tmp_path / "a" / "index.html").is_file()
+    assert all(len(line) <= 80 for line in got.output.splitlines())
+    got = runner.invoke(app, ["report", str(campaign.path), "--team", "team-alpa",
+                              "--out", str(tmp_path / "b")])
+    assert got.exit_code == 2 and "Did you mean 'team-alpha'?" in got.output
+    with _store(campaign) as store:
+        folder = store.results(campaign.spec.name)[0].result.episode_dir
+    got = runner.invoke(app, ["report", str(folder), "--out", str(tmp_path / "c")])
+    assert got.exit_code == 0 and (tmp_path / "c" / "index.html").is_file()
+    got = runner.invoke(app, ["report", str(tmp_path / "nothing"), "--out", str(tmp_path)])
+    assert got.exit_code == 2
+
+
+# ---------------------------------------------------------------------------- Track 1
+@pytest.mark.slow
+def test_a_track1_episode_page(track1_episode: Path, browser: Browser, shots: Path,
+                               tmp_path: Path) -> None:
+    out = tmp_path / "t1"
+    (page,) = write_episode_site(track1_episode, out)
+    size = page.stat().st_size
+    print(f"\nTrack 1 episode page at 640x480: {size / 2**20:.2f} MiB")
+    assert size < PAGE_LIMIT
+    text = page.read_text()
+    assert not _leaks(_hidden_values(track1_episode), text)
+    assert not browser.open(page.as_uri())
+    got = browser.evaluate("[document.querySelectorAll('#map-svg image').length,"
+                           " document.querySelectorAll('#events tr[data-step]').length,"
+                           " document.querySelectorAll('details.snapshot').length,"
+                           " document.getElementById('frame-rgb').naturalWidth]")
+    assert got[0] == 1 and got[1] > 5 and got[2] >= 3 and 0 < got[3] <= 192
+    first = browser.evaluate("document.getElementById('path').dataset.points")
+    browser.open(page.as_uri() + "?step=3")
+    assert int(browser.evaluate("document.getElementById('path').dataset.points")) < int(first)
+    browser.open(page.as_uri())
+    print(f"screenshot (episode): {browser.screenshot(shots / 'episode.png')}")
+    org = tmp_path / "org"
+    (page,) = write_episode_site(track1_episode, org, organizer=True)
+    assert "hidden-scenario" in page.read_text()
+    assert not browser.open(page.as_uri())
+
+
+def test_the_wheel_carries_the_templates(tmp_path: Path) -> None:
+    import zipfile
+
+    from orchestrator._images.wheel import build_wheel
+
+    names = set(zipfile.ZipFile(build_wheel(ROOT, tmp_path)).namelist())
+    templates = ROOT / "orchestrator" / "_viewer" / "templates"
+    assert {"base.html", "index.html", "team.html", "episode.html"} <= {
+        p.name for p in templates.glob("*.html")}
+    for path in templates.glob("*.html"):
+        assert path.relative_to(ROOT).as_posix() in names

@@ -20,6 +20,10 @@ host's liveliness token: when the host is gone (its process ended or was killed)
 under way or the next one raises ``HostLost`` at once. A reply that does not come within
 ``timeout_s`` (60 s by default) raises ``TimeoutError``. The wire format is specified in
 ``schemas/PROTOCOL.md``.
+
+``GymEnv`` (``RemoteEnv.as_gym()``) offers the same episode as a ``gymnasium.Env``-shaped
+object, for a policy written against the offline environments (``simhost._gym_client``;
+loaded on first use, so that importing this module never imports gymnasium).
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ import secrets
 import threading
 import time
 from collections.abc import Callable, Mapping
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import zenoh
@@ -55,15 +59,33 @@ from simhost._errors import SimHostError
 from simhost._outputs import OutputFileError, OutputFiles
 from simhost._wire import decode_observation, decode_reply, encode
 
+if TYPE_CHECKING:
+    from simhost._gym_client import GymClientError, GymEnv, StageEnd, StageRule
+
 __all__ = [
     "DEFAULT_TIMEOUT_S",
+    "GymClientError",
+    "GymEnv",
     "HostError",
     "HostLost",
     "OutputFileError",
     "OutputFiles",
     "RemoteEnv",
+    "StageEnd",
+    "StageRule",
     "TimeStep",
 ]
+
+_GYM_EXPORTS = ("GymClientError", "GymEnv", "StageEnd", "StageRule")
+
+
+def __getattr__(name: str) -> Any:
+    """The gymnasium-style client's names, loaded on first use (gymnasium if installed)."""
+    if name in _GYM_EXPORTS:
+        from simhost import _gym_client
+
+        return getattr(_gym_client, name)
+    raise AttributeError(f"module 'simhost.agent' has no attribute {name!r}")
 
 #: How long a call waits for its reply by default. A live host answers within milliseconds
 #: (a stage end with the track's bookkeeping within seconds); a dead one is noticed at once
@@ -233,6 +255,14 @@ class RemoteEnv:
         """Ends the current stage early (Track 1: the plan goes in ``payload``)."""
         return self._timestep(self._call(
             lambda rid: EndStage(seq=self._seq, id=rid, payload=dict(payload or {})), {}))
+
+    def as_gym(self, **options: Any) -> GymEnv:
+        """This episode as a ``gymnasium.Env``-shaped ``GymEnv`` (says hello if not done
+        yet); ``options`` are ``GymEnv``'s keyword arguments (``stages``, ``on_stage_end``,
+        ``end_stage_payload``, ``output``, ``agent``)."""
+        from simhost._gym_client import GymEnv
+
+        return GymEnv(self, **options)
 
     @property
     def observation_spec(self) -> tuple[FieldSpec, ...]:

@@ -62,6 +62,23 @@ def test_agent_client_imports_nothing_heavy(gymnasium):
     assert not [m for m in modules if m.startswith(("simhost.track", "simhost.sanity"))]
 
 
+_GYM_CLIENT = _CLIENT + "\nfrom simhost.agent import GymEnv, StageEnd, StageRule"
+
+
+@pytest.mark.parametrize("gymnasium", ["installed", "absent"])
+def test_the_gymnasium_style_client_imports_gymnasium_only_when_installed(gymnasium):
+    # Absent (the agent base image): plain spaces, nothing heavy. Installed: gymnasium (and
+    # the light track registrations it triggers), still no simulator, organizer or runtime.
+    block = "import sys\nsys.modules['gymnasium'] = None\n" if gymnasium == "absent" else ""
+    modules = _imported_after(block + _GYM_CLIENT)
+    heavy = _heavy(modules)
+    if gymnasium == "absent":
+        assert not heavy
+        assert not [m for m in modules if m.startswith(("simhost.track", "simhost.sanity"))]
+    else:
+        assert {m.split(".")[0] for m in heavy} == {"gymnasium"}
+
+
 def test_schemas_import_only_pydantic():
     modules = _imported_after("import schemas")
     assert not _heavy(modules, (*HEAVY, "numpy", "zenoh", "simhost"))

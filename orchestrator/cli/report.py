@@ -59,7 +59,8 @@ def report_cmd(
             pages = write_campaign_site(spec, store, out_dir, team=team, organizer=organizer,
                                         say=lambda m: status.update(f"writing {m}"))
     index = out_dir / "index.html"
-    out.print(f"{len(pages)} page{'s' if len(pages) != 1 else ''} written; open")
-    out.print(f"  {index.resolve().as_uri()}")
+    out.print(f"{len(pages)} page{'s' if len(pages) != 1 else ''} written; open in a "
+              "browser:")
+    out.print(f"  {index}")
     if organizer:
         notes.print("organizer's view: it holds the hidden scenario; never send it to a team")

@@ -281,7 +281,8 @@ def test_the_command_line(campaign: Campaign, tmp_path: Path) -> None:
     got = runner.invoke(app, ["report", str(campaign.path), "--out", str(tmp_path / "a")])
     assert got.exit_code == 0, got.output
     assert (tmp_path / "a" / "index.html").is_file()
-    assert all(len(line) <= 80 for line in got.output.splitlines())
+    assert got.output.splitlines()[-1].strip() == str(tmp_path / "a" / "index.html")
+    assert all(len(line) <= 80 for line in got.output.splitlines()[:-1])
     got = runner.invoke(app, ["report", str(campaign.path), "--team", "team-alpa",
                               "--out", str(tmp_path / "b")])
     assert got.exit_code == 2 and "Did you mean 'team-alpha'?" in got.output

@@ -32,15 +32,16 @@ import difflib
 import math
 from collections.abc import Mapping, Sequence
 from fractions import Fraction
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from plugins._errors import PluginError
 from plugins.track1._budgets import execution_steps, exploration_steps
 from plugins.track1._queries import plan_queries
 from plugins.track1._tasks import make_task
-from plugins.track1._types import EXCEPTION_TYPES, Track1Scenario
+from plugins.track1._types import EXCEPTION_TYPES, ExceptionType, Track1Scenario
 from simhost.track1 import (
     ConfigError,
     HouseSplit,
@@ -49,41 +50,71 @@ from simhost.track1 import (
     initial_ground_truth,
 )
 
-KNOWN_PARAMS = ("rooms", "exception_probability", "exceptions", "goals", "language",
-                "step_budgets", "house_params", "env", "render_rgbd", "image_size")
+
+class SplitParams(BaseModel):
+    """A Track 1 split's scenario parameters, with their defaults (the split's own values
+    are in ``Track1.splits``; a campaign file may override any)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    rooms: tuple[int, int] | None = None
+    """Rooms per house (inclusive range); None: the split's own."""
+    exception_probability: float = Field(0.5, ge=0.0, le=1.0)
+    exceptions: tuple[ExceptionType, ...] = EXCEPTION_TYPES
+    """The exception types allowed (Table III)."""
+    goals: tuple[int, int] = (1, 1)
+    """Clauses of the instruction (inclusive range within 1-3)."""
+    language: Literal["templates", "grammar"] = "grammar"
+    step_budgets: bool = True
+    """False: no per-episode step budgets (the dev split)."""
+    house_params: dict[str, Any] | None = None
+    env: dict[str, Any] | None = None
+    render_rgbd: bool | None = None
+    image_size: tuple[int, int] | None = None
+
+    @model_validator(mode="after")
+    def _goals_in_range(self) -> SplitParams:
+        lo, hi = self.goals
+        if not 1 <= lo <= hi <= 3:
+            raise ValueError(f"goals must satisfy 1 <= lo <= hi <= 3, got {[lo, hi]}")
+        return self
 
 
-def check_params(params: Mapping[str, Any]) -> None:
-    """Raises PluginError naming an unknown or bad split parameter."""
+KNOWN_PARAMS = tuple(SplitParams.model_fields)
+
+
+def split_params(params: Mapping[str, Any]) -> SplitParams:
+    """``params`` checked; PluginError naming an unknown or bad split parameter."""
     for key in params:
         if key not in KNOWN_PARAMS:
             near = difflib.get_close_matches(key, KNOWN_PARAMS, n=1)
             hint = f" Did you mean {near[0]!r}?" if near else ""
             raise PluginError(f"track1: unknown scenario parameter {key!r}.{hint} "
                               f"Known: {list(KNOWN_PARAMS)}")
-    bad = [t for t in params.get("exceptions", ()) if t not in EXCEPTION_TYPES]
-    if bad:
-        raise PluginError(f"track1: unknown exception types {bad}; known: {EXCEPTION_TYPES}")
-    p = float(params.get("exception_probability", 0.5))
-    if not 0.0 <= p <= 1.0:
-        raise PluginError(f"track1: exception_probability must be in [0, 1], got {p}")
-    lo, hi = params.get("goals", (1, 1))
-    if not 1 <= int(lo) <= int(hi) <= 3:
-        raise PluginError(f"track1: goals must satisfy 1 <= lo <= hi <= 3, got {[lo, hi]}")
-    if params.get("language", "grammar") not in ("templates", "grammar"):
-        raise PluginError(f"track1: language must be 'templates' or 'grammar', got "
-                          f"{params['language']!r}")
+    try:
+        return SplitParams.model_validate(dict(params))
+    except ValidationError as e:
+        first = e.errors()[0]
+        where = ".".join(str(x) for x in first["loc"]) or "params"
+        raise PluginError(f"track1: bad scenario parameter {where}: {first['msg']}") from None
+
+
+def check_params(params: Mapping[str, Any]) -> None:
+    """Raises PluginError naming an unknown or bad split parameter."""
+    split_params(params)
 
 
 def split_config(split: str, params: Mapping[str, Any]) -> HouseSplit:
     """The split's houses and sensing with the campaign's overrides."""
-    house = dict(params.get("house_params") or {})
-    if "rooms" in params:
-        house["rooms"] = list(params["rooms"])
-    env = dict(params.get("env") or {})
-    for key in ("render_rgbd", "image_size"):
-        if key in params:
-            env[key] = params[key]
+    sp = split_params(params)
+    house = dict(sp.house_params or {})
+    if sp.rooms is not None:
+        house["rooms"] = list(sp.rooms)
+    env = dict(sp.env or {})
+    if sp.render_rgbd is not None:
+        env["render_rgbd"] = sp.render_rgbd
+    if sp.image_size is not None:
+        env["image_size"] = sp.image_size
     try:
         return house_split(split).with_overrides(params=house, config=env)
     except (ConfigError, ValueError) as e:
@@ -110,21 +141,21 @@ def build_scenario(seed: int, split: str, params: Mapping[str, Any],
                    index: int | None = None) -> Track1Scenario:
     """The hidden scenario of a seed in a split (same arguments, same scenario); with the
     episode's ``index`` in its split, the exception type comes from the index."""
-    check_params(params)
+    sp = split_params(params)
     config = split_config(split, params)
     layout = generate_house(seed, params=config.params)
     truth = initial_ground_truth(layout)
     rng = np.random.default_rng([seed, 1])
-    allowed = [t for t in EXCEPTION_TYPES if t in params.get("exceptions", EXCEPTION_TYPES)]
-    probability = float(params.get("exception_probability", 0.5))
+    allowed = [t for t in EXCEPTION_TYPES if t in sp.exceptions]
+    probability = sp.exception_probability
     exception = None
     if allowed and rng.random() < probability:  # drawn even with an index: the seed's
         exception = allowed[int(rng.integers(len(allowed)))]  # later draws stay the same
     if index is not None:
         exception = stratified_exception(index, probability, allowed)
-    lo, hi = params.get("goals", (1, 1))
-    n_goals = int(rng.integers(int(lo), int(hi) + 1))
-    dev = params.get("language", "grammar") == "templates"
+    lo, hi = sp.goals
+    n_goals = int(rng.integers(lo, hi + 1))
+    dev = sp.language == "templates"
     order = [exception, *(t for t in allowed if t != exception)] if exception else []
     try:
         task, planned = make_task(layout, truth, rng, dev=dev, n_goals=n_goals,
@@ -133,7 +164,7 @@ def build_scenario(seed: int, split: str, params: Mapping[str, Any],
         raise PluginError(f"track1: {e}; use another seed") from e
     spec = Track1Scenario(split=config, layout_digest=layout.digest(), rooms=len(layout.rooms),
                           task=task, exception=planned, queries=plan_queries(truth, rng))
-    if not params.get("step_budgets", True):
+    if not sp.step_budgets:
         return spec
     cfg = config.config
     budgets = {

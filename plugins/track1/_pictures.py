@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from plugins.track1._types import Task, Track1Scenario
+from schemas import EpisodeResult
 
 ITEM, GOAL, EXCEPTION = (220, 0, 200), (0, 170, 210), (220, 20, 20)
 STAGE_COLOURS = {"exploration": (30, 90, 220), "planning": (120, 120, 120),
@@ -74,6 +75,14 @@ def _mark_task(overlay: _Overlay, layout: Any, task: Task) -> None:
             overlay.ring(x, y, colour)
 
 
+def title_lines(lines: list[str], width: int) -> list[str]:
+    """``lines`` wrapped so that none runs past a picture ``width`` pixels wide (8 px a
+    character, 8 px of margin each side); a word longer than a line is cut."""
+    chars = max(8, (width - 16) // 8)
+    return [part for line in lines
+            for part in textwrap.wrap(line, chars, break_on_hyphens=False) or [""]]
+
+
 def _framed(img: np.ndarray, title: list[str], legend: list[tuple[str, Colour]]) -> np.ndarray:
     """The picture with its title above, and its legend and a 1 m scale bar below."""
     from simhost.track1 import TOPDOWN_SCALE, draw_text
@@ -88,6 +97,7 @@ def _framed(img: np.ndarray, title: list[str], legend: list[tuple[str, Colour]])
             x = 8
         entries[-1].append((label, colour))
         x += need
+    title = title_lines(title, width)
     top = 8 + _LINE * len(title)
     bottom = 8 + _LINE * (len(entries) + 1) + 8
     out = np.full((top + img.shape[0] + bottom, width, 3), 255, np.uint8)
@@ -173,8 +183,8 @@ def _read_mcap(path: Path) -> tuple[dict[str, Any], list[tuple[int, list[float]]
                 poses.append((message.log_time, doc["odometry"]))
             elif channel.topic == "/eagc/event":
                 events.append((message.log_time, doc))
-            elif channel.topic == "/eagc/score" and isinstance(doc.get("total"), int | float):
-                total = float(doc["total"])
+            elif channel.topic == "/eagc/score":  # the episode's EpisodeResult
+                total = EpisodeResult.model_validate(doc).score.total
     return scenario, poses, events, total
 
 

@@ -15,7 +15,7 @@ from orchestrator._episode.worker import EpisodeSpec, run_episode
 from orchestrator._runtimes.local import LocalProcessRuntime
 from plugins import load_track
 from plugins.track1 import trajectory_png
-from plugins.track1._pictures import STAGE_COLOURS
+from plugins.track1._pictures import STAGE_COLOURS, _read_mcap, title_lines
 from schemas import EpisodeStatus, Limits
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -74,6 +74,8 @@ def test_trajectory_of_a_recorded_episode(tmp_path: Path) -> None:
         assert result.status is EpisodeStatus.COMPLETED, result.failure
         path = trajectory_png(result.episode_dir or "")
         assert path == Path(result.episode_dir or "") / "host" / "trajectory.png"
+        # The title's score is the episode's (the MCAP's score record is its EpisodeResult).
+        assert _read_mcap(path.with_name("episode.mcap"))[3] == result.score.total
         img = _read_png(path)
         assert _has(img, STAGE_COLOURS["exploration"]) and _has(img, STAGE_COLOURS["execution"])
         for colour in STAGE_COLOURS.values():
@@ -82,3 +84,12 @@ def test_trajectory_of_a_recorded_episode(tmp_path: Path) -> None:
         shutil.rmtree(runs, ignore_errors=True)
     with pytest.raises(FileNotFoundError, match="episode folder"):
         trajectory_png(tmp_path)
+
+
+def test_a_long_title_is_wrapped_within_the_picture() -> None:
+    seed = "1234567890" * 4
+    lines = title_lines([f"TRACK1 challenge seed {seed}: completed, score 42.0",
+                         "task: put the mug in the sink"], 420)
+    assert all(len(line) <= (420 - 16) // 8 for line in lines)
+    assert " ".join(lines).replace(" ", "") == \
+        f"TRACK1challengeseed{seed}:completed,score42.0task:putthemuginthesink"

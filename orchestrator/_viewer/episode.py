@@ -73,6 +73,9 @@ class EpisodeView:
     log_tail: str = ""
     hidden: str | None = None
     picture: str | None = None
+    #: Organizers only: the graded model against the hidden truth (``truth``).
+    truth: list[str] = field(default_factory=list)
+    truth_of: str = ""
     problems: list[str] = field(default_factory=list)
 
 
@@ -95,6 +98,7 @@ def read_episode(folder: Path, *, organizer: bool) -> EpisodeView:
     if organizer and scenario:
         view.hidden = json.dumps(scenario, indent=2, default=str)
         _track_picture(folder, result, view)
+        _truth(host, scenario, view)
     view.events.sort(key=lambda e: (e.step, {"host": 0, "action": 1, "agent": 2}[e.source]))
     return view
 
@@ -322,6 +326,20 @@ def _attempts(folder: Path, view: EpisodeView) -> None:
         xyz = np.asarray([p[1:] for p in a.pop("xyz")])
         png = render_attempt_vs_demo(demo, xyz, title=f"ATTEMPT {a['attempt']}")
         a["image"] = fr.data_uri(png)
+
+
+def _truth(host: Path, scenario: dict[str, Any], view: EpisodeView) -> None:
+    """Track 1: the world model graded at the end of exploration against the house."""
+    from orchestrator._viewer.truth import track1_differences
+
+    graded = host / "snapshots" / "exploration" / "world_model.json"
+    if scenario.get("track") != "track1" or not graded.is_file():
+        return
+    try:
+        view.truth = track1_differences(scenario, json.loads(graded.read_text()))
+        view.truth_of = "exploration · world_model.json"
+    except Exception as e:  # noqa: BLE001 - the rest of the page stands without it
+        view.problems.append(f"no model-vs-truth comparison: {type(e).__name__}: {e}")
 
 
 def _track_picture(folder: Path, result: EpisodeResult, view: EpisodeView) -> None:

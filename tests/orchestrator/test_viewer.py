@@ -234,6 +234,7 @@ def test_a_team_sees_only_itself_and_no_hidden_scenario(
         leaked = _leaks(hidden, text)
         assert not leaked, (page, leaked[:5])
         assert "hidden-scenario" not in text and "/tmp/" not in text, page
+        assert "model-vs-truth" not in text, page
     _open_all(browser, out)
     # The organizer's view of the same team holds the scenario.
     org = tmp_path / "org"
@@ -318,7 +319,7 @@ def test_a_track1_episode_page(track1_episode: Path, browser: Browser, shots: Pa
     print(f"screenshot (episode): {browser.screenshot(shots / 'episode.png')}")
     org = tmp_path / "org"
     (page,) = write_episode_site(track1_episode, org, organizer=True)
-    assert "hidden-scenario" in page.read_text()
+    assert "hidden-scenario" in page.read_text() and "model-vs-truth" in page.read_text()
     assert not browser.open(page.as_uri())
 
 

@@ -40,7 +40,10 @@ def demo_files(tracks: list[str] | None = None) -> dict[str, Path]:
         return found
     missing = [t for t in tracks if t not in found]
     if missing:
-        raise UsageError(f"no demo for track {missing[0]!r}: the demos are "
+        from orchestrator.cli.common import _suggest
+
+        raise UsageError(f"no demo for track {missing[0]!r}.{_suggest(missing[0], list(found))}"
+                         f" The demos are "
                          f"{', '.join(found) or 'none'} (examples/campaigns/demo_<track>.yaml)")
     return {t: found[t] for t in tracks}
 

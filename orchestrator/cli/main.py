@@ -63,10 +63,12 @@ SeedOpt = Annotated[int, typer.Option(help="Scenario seed (public: for local tes
 
 
 def local_command(image: str) -> str:
-    """What ``--runtime local`` runs for an example image: its folder's agent.py."""
+    """What ``--runtime local`` runs for an example image (``eagc/track1-heuristic``, with
+    or without ``:latest``): its folder's agent.py; anything else is a command line."""
     from orchestrator._images.build import example_agents
 
-    folder = example_agents().get(image)
+    agents = example_agents()
+    folder = agents.get(image) or agents.get(f"{image}:latest")
     if folder is None:
         return image  # already a command line
     return f"python {folder / 'agent.py'}"
@@ -101,6 +103,8 @@ def _run_one(track: str, image: str, runtime: str, seed: int, split: str, time_s
     check_split(plugin, split)
     limits = limits_of(time_scale=time_scale, max_steps_per_stage=max_steps,
                        memory_mb=memory_mb, cpus=cpus)
+    if runtime == "local":
+        image = local_command(image)
     spec = EpisodeSpec(track=track, image=image, seed=seed, split=split, limits=limits,
                        runs_dir=runs_dir)
     agent_runtime = _runtime(runtime)
@@ -181,6 +185,8 @@ def test_agent(
 
     plugin = check_track(track)
     check_split(plugin, split)
+    if runtime == "local":
+        image = local_command(image)
     spec = EpisodeSpec(track=track, image=image, seed=seed, split=split, runs_dir=runs_dir,
                        limits=limits_of(time_scale=time_scale, memory_mb=memory_mb))
     agent_runtime = _runtime(runtime)

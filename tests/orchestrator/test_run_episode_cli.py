@@ -82,3 +82,19 @@ def test_every_status_has_its_exit_code() -> None:
         else:
             assert code == ExitCode.AGENT == 4
     assert ExitCode.USAGE == 2 and len({int(c) for c in ExitCode}) == len(ExitCode)
+
+
+@pytest.mark.slow
+def test_an_example_image_name_runs_its_agent_locally(runs: Path) -> None:
+    """With --runtime local an example's image name runs that example's agent.py (it was
+    passed on as a command line, which never started: agent_no_start)."""
+    code, out, err = _run("run-episode", "sanity", "--runtime", "local", "--image",
+                          "eagc/sanity-agent", "--runs-dir", str(runs), "--max-steps", "300")
+    assert code == ExitCode.OK, out + err
+    assert "completed" in out
+
+
+def test_a_misspelled_demo_track_gets_a_did_you_mean() -> None:
+    code, out, err = _run("demo", "--track", "trak1")
+    assert code == ExitCode.USAGE
+    assert "Did you mean 'track1'?" in out + err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from typing import Any
@@ -25,7 +26,8 @@ def test_campaign_runs_on_both_nodes(docker_engine: Any) -> None:
         cluster.start_head(cpus=1, resources={"eagc_slot": 1, "head_only": 1})
         cluster.add_node(cpus=2, resources={"eagc_slot": 2, "second_only": 1})
         folder = short_dir("eagc-cc-")
-        path = write_campaign(folder, "two-nodes", {"baseline": "eagc/sanity-agent:latest"},
+        name = "two-nodes-" + os.urandom(3).hex()  # unique on a shared engine
+        path = write_campaign(folder, name, {"baseline": "eagc/sanity-agent:latest"},
                               standard=3, challenge=3)
         spec = load_campaign(path)
         # The driver is a process of its own, joining with the token like any other.

@@ -9,6 +9,7 @@ where every query of deploy/'s dashboard and alert rules evaluates.
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import time
@@ -19,6 +20,7 @@ from typing import Any
 
 import docker
 import pytest
+from prometheus_client.parser import text_string_to_metric_families
 from test_campaign_helpers import (
     Prometheus,
     build_campaign_images,
@@ -56,7 +58,8 @@ class Run:
 def run(docker_engine: Any) -> Iterator[Run]:
     build_campaign_images(docker_engine, "crash", "oom")
     folder = short_dir("eagc-cl-")
-    path = write_campaign(folder, "local-ci", TEAMS)
+    # A name of its own: the engine and Prometheus are shared with other runs.
+    path = write_campaign(folder, "local-ci-" + os.urandom(3).hex(), TEAMS)
     spec = load_campaign(path)
     port = free_port()
     prom = Prometheus(folder, [f"127.0.0.1:{port}"], [DEPLOY / "prometheus" / "alerts.yml"])
@@ -120,7 +123,8 @@ def test_formats_and_cli(run: Run) -> None:
     assert [r["team"] for r in doc["rows"]][0] == "baseline"
     assert {c["key"] for c in doc["columns"]} >= {"standard", "challenge", "final"}
     res = cli.invoke(campaign_app, ["leaderboard", str(run.path), "--format", "csv"])
-    assert res.stdout.splitlines()[0].startswith("rank,team,state,episodes,standard,challenge")
+    assert res.stdout.splitlines()[0].startswith(
+        "rank,rank_best,rank_worst,team,state,episodes,standard,challenge,final")
     res = cli.invoke(campaign_app, ["leaderboard", str(run.path), "--format", "md"])
     assert "| 1 | baseline |" in res.stdout and "### Failed episodes" in res.stdout
     res = cli.invoke(campaign_app, ["status", str(run.path)])
@@ -168,6 +172,7 @@ def test_prometheus_scraped_the_episode_counts(run: Run) -> None:
 
 def test_promtool_accepts_the_exposition(run: Run, tmp_path: Path) -> None:
     metrics = CampaignMetrics(run.spec.name, track="sanity", phase="local")
+    metrics.start_series(run.spec)  # every series at 0 first, as the driver does
     with ResultsStore(store_path(run.spec)) as store:
         for e in store.results(run.spec.name):
             metrics.episode_finished(e.key.submission, e.result)
@@ -175,8 +180,20 @@ def test_promtool_accepts_the_exposition(run: Run, tmp_path: Path) -> None:
     metrics.episode_quarantined("crashy")
     metrics.set_states({"planned": 12, "done": 12})
     text = metrics.exposition()
-    assert b'eagc_episodes_total{campaign="local-ci",split="standard",status="agent_oom"' \
-           b',submission="hungry"} 2.0' in text or b"agent_oom" in text
+    # The counts by team, split and status: exactly what the store holds (2 + 2 episodes
+    # per team), every other series present and at 0.
+    finished = {(s.labels["submission"], s.labels["split"], s.labels["status"]): s.value
+                for family in text_string_to_metric_families(text.decode())
+                for s in family.samples if s.name == "eagc_episodes_total"}
+    assert all(s.labels["campaign"] == run.spec.name
+               for family in text_string_to_metric_families(text.decode())
+               for s in family.samples if s.name == "eagc_episodes_total")
+    assert {k: v for k, v in finished.items() if v} == {
+        (team, split, status): 2.0 for team, status in (("baseline", "completed"),
+                                                        ("crashy", "agent_crash"),
+                                                        ("hungry", "agent_oom"))
+        for split in ("standard", "challenge")}
+    assert len(finished) == 3 * 2 * len(EpisodeStatus)
     r = subprocess.run(["promtool", "check", "metrics"], input=text, capture_output=True)
     assert r.returncode == 0, r.stdout + r.stderr
 

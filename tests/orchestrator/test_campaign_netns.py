@@ -120,7 +120,7 @@ def test_a_worker_node_cut_off_mid_episode(docker_engine: Any) -> None:
                         "--num-cpus=2",
                         '--resources={"eagc_slot": 2}')
         folder = short_dir("eagc-nc-")
-        name = "cut-off"
+        name = "cut-off-" + os.urandom(3).hex()  # unique on a shared engine
         # ~25 s episodes: 125 steps of 0.1 s in each of two stages.
         path = write_campaign(folder, name, WAITING, standard=2, challenge=2, retries=2,
                               limits={"memory_mb": 256, "max_steps_per_stage": 125})

@@ -29,6 +29,10 @@ MAX_PATH = 2000
 TEAM_FIELDS = ("stage", "index", "ended_by", "type", "reason", "success", "count", "step")
 #: Changes listed per snapshot file, at most.
 MAX_CHANGES = 200
+#: Records of the agent's episode_log.jsonl on the timeline, at most (a page stays small).
+MAX_AGENT_RECORDS = 1000
+#: Characters of one snapshot shown, at most.
+MAX_SNAPSHOT_CHARS = 100_000
 
 
 @dataclass(frozen=True)
@@ -205,7 +209,11 @@ def _agent_log(host: Path, view: EpisodeView) -> None:
     log = host / "output" / "episode_log.jsonl"
     if not log.is_file():
         return
-    for line in log.read_text(errors="replace").splitlines()[:5000]:
+    lines = log.read_text(errors="replace").splitlines()
+    if len(lines) > MAX_AGENT_RECORDS:
+        view.problems.append(f"the agent's episode_log.jsonl has {len(lines)} records: the "
+                             f"first {MAX_AGENT_RECORDS} are on the timeline")
+    for line in lines[:MAX_AGENT_RECORDS]:
         try:
             rec = json.loads(line)
             step = int(rec.get("step", 0))
@@ -231,8 +239,11 @@ def _snapshots(host: Path, result: EpisodeResult, view: EpisodeView) -> None:
             first = file.name not in before
             changes = () if first else tuple(diff(before[file.name], doc))
             before[file.name] = doc
-            view.snapshots.append(Snapshot(stage, file.name, json.dumps(doc, indent=1),
-                                           changes, first))
+            text = json.dumps(doc, indent=1)
+            if len(text) > MAX_SNAPSHOT_CHARS:
+                text = (text[:MAX_SNAPSHOT_CHARS]
+                        + f"\n… {len(text) - MAX_SNAPSHOT_CHARS} more characters")
+            view.snapshots.append(Snapshot(stage, file.name, text, changes, first))
 
 
 def diff(old: Any, new: Any, where: str = "") -> list[str]:

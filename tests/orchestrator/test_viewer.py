@@ -184,6 +184,20 @@ def test_thumbnails_round_trip() -> None:
     assert (decode_png(encode_png(img)) == img).all()
 
 
+def test_frames_are_thinned_to_the_budget_keeping_both_ends() -> None:
+    import numpy as np
+
+    from orchestrator._viewer.frames import FRAME_BUDGET, MAX_FRAMES, Frame, page_frames
+
+    rng = np.random.default_rng(0)
+    noise = [Frame(step=5 * k, rgb=rng.integers(0, 256, (480, 640, 3), dtype=np.uint8))
+             for k in range(300)]  # incompressible: the budget binds
+    kept = page_frames(noise)
+    assert 2 < len(kept) <= MAX_FRAMES
+    assert kept[0]["step"] == 0 and kept[-1]["step"] == 5 * 299
+    assert sum(len(str(f["rgb"])) for f in kept) * 3 / 4 <= FRAME_BUDGET * 1.01
+
+
 # ------------------------------------------------------------------------- the campaign
 @pytest.mark.slow
 def test_the_index_is_the_leaderboard_with_every_team_linked(

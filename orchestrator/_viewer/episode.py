@@ -5,7 +5,9 @@ poses), ``host/output/episode_log.jsonl``, ``host/snapshots/<stage>/*.json`` and
 ``host/agent.log``. The team's view (``organizer=False``) keeps what the team may see: no
 seed, no scenario parameters, no organizer path, and of the host's events only their
 name, stage, step and outcome (an exception's type and step, never its subject or place).
-The organizer's view adds the hidden scenario and the track's own picture of the episode.
+Track 1's map is the house's plan without the objects and tools (the items a world model
+inventories). The organizer's view adds the hidden scenario, the items, the track's own
+picture of the episode and the graded model against the truth.
 """
 
 from __future__ import annotations
@@ -319,11 +321,26 @@ def _house(scenario: dict[str, Any], view: EpisodeView) -> None:
 
     spec = Track1Scenario.model_validate(scenario["params"])
     layout = generate_house(int(scenario["seed"]), params=spec.split.params)
-    img = render_topdown(layout)
+    if view.organizer:
+        img = render_topdown(layout)
+    else:  # the plan without the items the world model inventories
+        img = render_topdown(_Plan(layout))
     height = float(layout.extent[1])
     view.map_image = fr.data_uri(fr.encode_png(np.asarray(img, np.uint8)[:, :, :3]))
     view.map_frame = {"ox": TOPDOWN_MARGIN, "oy": TOPDOWN_MARGIN + height * TOPDOWN_SCALE,
                       "scale": TOPDOWN_SCALE, "width": img.shape[1], "height": img.shape[0]}
+
+
+class _Plan:
+    """A house for ``render_topdown`` as generated, without its objects and tools."""
+
+    def __init__(self, layout: Any) -> None:
+        self.layout = layout
+
+    def ground_truth(self) -> Any:
+        from simhost.track1 import initial_ground_truth
+
+        return initial_ground_truth(self.layout).model_copy(update={"objects": ()})
 
 
 def _attempts(folder: Path, view: EpisodeView) -> None:

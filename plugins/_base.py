@@ -30,6 +30,7 @@ from schemas import (
     parse_episode_log,
     parse_json,
 )
+from schemas._io import ignored_note
 from schemas._result import EpisodeStatus
 from simhost._episode import StageSpec, TrackEpisode
 
@@ -183,9 +184,13 @@ class TrackPlugin(ABC):
         """Writes read-only inputs mounted into the container (e.g. a demo packet)."""
 
     def verify_files(self, files: Mapping[str, bytes]) -> tuple[dict[str, Any], list[FileCheck]]:
-        """Validates collected files against their schemas.
+        """Validates collected files against their schemas (``eagc check-files`` runs
+        this too, so that a team sees what the host sees).
 
-        Returns the parsed files that passed and one check per expected or present file.
+        Returns the parsed files that passed and one check per expected or present file:
+        a refused file's ``reason`` holds every problem, one line per field path
+        (``schemas._io.problem_lines``); a passed file's, the keys nothing grades (they
+        are ignored, never a reason to refuse the file).
         """
         parsed: dict[str, Any] = {}
         checks: list[FileCheck] = []
@@ -201,7 +206,10 @@ class TrackPlugin(ABC):
                 else:
                     assert rule.model is not None
                     parsed[fname] = parse_json(data, rule.model, source=fname)
-                checks.append(FileCheck(name=fname, ok=True, size=len(data)))
+                note = ignored_note(fname, parsed[fname])
+                checks.append(FileCheck(name=fname, ok=True, size=len(data),
+                                        reason="" if note is None
+                                        else note.removeprefix(f"{fname}: ")))
             except SchemaError as e:
                 checks.append(FileCheck(name=fname, ok=False, size=len(data), reason=e.detail))
         return parsed, checks

@@ -7,13 +7,18 @@
 - ``episode_log.jsonl`` (both tracks): one record per line, in time order.
 
 Agents should write to a temporary name and rename, so that a snapshot never sees half a file.
+
+Fields a track does not grade are allowed: an unknown key (at the top level or inside an
+entry) is ignored, and the score card's notes list it (``schemas.ignored_fields``). A file
+is refused only when what the score reads cannot be read. Fields marked ``graded`` in the
+JSON Schemas are the ones the tracks' scores read.
 """
 
 from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import AliasChoices, BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
 WORLD_MODEL_VERSION = "eagc-world-model/v1"
 TASK_MODEL_VERSION = "eagc-task-model/v1"
@@ -21,49 +26,91 @@ TASK_MODEL_VERSION = "eagc-task-model/v1"
 Id = int | str
 
 
+def graded(default: Any = ..., description: str = "", **kw: Any) -> Any:
+    """A field a track's score reads (``"graded": true`` in the JSON Schema)."""
+    return Field(default, description=f"Graded. {description}".strip(),
+                 json_schema_extra={"graded": True}, **kw)
+
+
 class _File(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    """A part of an agent's file: unknown keys are ignored (and listed, never an error)."""
+
+    model_config = ConfigDict(extra="ignore", json_schema_extra={"additionalProperties": True})
+    #: Paths of the keys this object's file held that no model field takes (set by
+    #: ``schemas.parse_json`` / ``parse_jsonl`` on the file's top object or record).
+    _ignored: tuple[str, ...] = PrivateAttr(default=())
+    #: The report lines of the fields nothing grades whose value could not be read (set
+    #: alike): ignored, as unknown keys are.
+    _unreadable: tuple[str, ...] = PrivateAttr(default=())
+
+
+def _example(*examples: dict[str, Any]) -> ConfigDict:
+    return ConfigDict(extra="ignore", json_schema_extra={"additionalProperties": True,
+                                                          "examples": list(examples)})
 
 
 class Room(_File):
-    id: Id
+    """A room, by the id of the ``room`` observation."""
+
+    model_config = _example({"id": 3, "type": "kitchen"})
+
+    id: Id = Field(description="The room id the ``room`` observation shows.")
     type: str | None = Field(default=None, description="kitchen, bedroom, … or null.")
 
 
 class Connection(_File):
     """Two rooms that connect, through a door or an open doorway."""
 
-    rooms: tuple[Id, Id]
+    model_config = _example({"rooms": [3, 5], "door": 41})
+
+    rooms: tuple[Id, Id] = graded(description="The two room ids (Track 1: room-graph edges).")
     door: Id | None = None
 
 
 class DoorState(_File):
-    id: Id
-    state: Literal["open", "closed", "locked", "unknown"]
+    """A door and its state."""
+
+    model_config = _example({"id": 41, "state": "closed"})
+
+    id: Id = graded(description="The door's instance id.")
+    state: Literal["open", "closed", "locked", "unknown"] = graded()
 
 
 class ContainerState(_File):
-    id: Id
+    """A container (cabinet, fridge, …) and its state."""
+
+    model_config = _example({"id": 52, "type": "fridge", "room": 3, "state": "closed"})
+
+    id: Id = graded(description="The container's instance id.")
     type: str | None = None
     room: Id | None = None
-    state: Literal["open", "closed", "unavailable", "unknown"]
+    state: Literal["open", "closed", "unavailable", "unknown"] = graded()
 
 
 class ObjectEntry(_File):
-    id: Id
-    category: str | None = None
+    """An object or tool: what it is, where it is."""
+
+    model_config = _example({"id": 17, "category": "cup", "colour": "red", "room": 3,
+                             "receptacle": 52, "position": [1.2, -0.4], "state": None})
+
+    id: Id = graded(description="The instance id of the detections.")
+    category: str | None = graded(None, "Inventory: category, room and position.")
     colour: str | None = None
-    room: Id | None = None
+    room: Id | None = graded(None, "The room id it is in.")
     receptacle: Id | None = Field(default=None, description="Furniture or container it is on/in.")
-    position: tuple[float, float] | None = Field(default=None, description="World x, y (m).")
-    state: str | None = Field(
-        default=None, description="Visible state (dirty, sliced, …); 'removed' when gone."
+    position: tuple[float, float] | None = graded(None, "World x, y (m).")
+    state: str | None = graded(
+        None, "Visible state (dirty, sliced, …); 'removed' when gone."
     )
 
 
 class Affordance(_File):
-    tool: Id
-    affordance: str
+    """What a tool can do (``plugins/track1/README.md`` names the affordances)."""
+
+    model_config = _example({"tool": 23, "affordance": "cut"})
+
+    tool: Id = graded(description="The tool's instance id.")
+    affordance: str = graded()
 
 
 class WorldModel(_File):
@@ -79,25 +126,29 @@ class WorldModel(_File):
     version: Literal["eagc-world-model/v1"] = WORLD_MODEL_VERSION
     step: int | None = Field(default=None, description="Agent step at which it was written.")
     rooms: list[Room] = Field(default_factory=list)
-    connections: list[Connection] = Field(default_factory=list)
-    doors: list[DoorState] = Field(default_factory=list)
-    containers: list[ContainerState] = Field(default_factory=list)
-    objects: list[ObjectEntry] = Field(default_factory=list)
-    affordances: list[Affordance] = Field(default_factory=list)
+    connections: list[Connection] = graded(default_factory=list)
+    doors: list[DoorState] = graded(default_factory=list)
+    containers: list[ContainerState] = graded(default_factory=list)
+    objects: list[ObjectEntry] = graded(default_factory=list)
+    affordances: list[Affordance] = graded(default_factory=list)
 
 
 class NamedItem(_File):
     """A named value, e.g. a constraint: ``{"name": "clearance", "value": 0.004}``."""
 
-    name: str
-    value: Any = None
+    model_config = _example({"name": "clearance", "value": 0.004})
+
+    name: str = graded()
+    value: Any = graded(None)
     description: str = ""
 
 
 class StateVariable(_File):
     """A state variable the task depends on, e.g. ``peg_pose`` of part ``peg``."""
 
-    name: str
+    model_config = _example({"name": "peg_pose", "type": "pose", "part": "peg"})
+
+    name: str = graded()
     type: Literal["pose", "position", "angle", "fraction", "length", "bool"] | None = None
     part: str | None = Field(default=None, description="The part it describes, if any.")
     value: Any = Field(default=None, description="Its value when the file was written.")
@@ -107,8 +158,10 @@ class StateVariable(_File):
 class Precondition(_File):
     """What must hold to enter ``stage``: predicates such as ``peg_grasped``."""
 
-    stage: str
-    requires: list[str] = Field(default_factory=list)
+    model_config = _example({"stage": "insert", "requires": ["peg_grasped", "peg_aligned"]})
+
+    stage: str = graded()
+    requires: list[str] = graded(default_factory=list)
 
 
 class SuccessCriterion(_File):
@@ -117,9 +170,11 @@ class SuccessCriterion(_File):
     ``value`` is a number or bool, or ``[low, high]`` with ``op == "within"``.
     """
 
-    variable: str
-    op: Literal[">=", "<=", "==", "within"]
-    value: Any = None
+    model_config = _example({"variable": "insertion_depth", "op": ">=", "value": 0.02})
+
+    variable: str = graded()
+    op: Literal[">=", "<=", "==", "within"] = graded()
+    value: Any = graded(None)
     description: str = ""
 
 
@@ -138,16 +193,16 @@ class TaskModel(_File):
 
     version: Literal["eagc-task-model/v1"] = TASK_MODEL_VERSION
     step: int | None = Field(default=None, description="Agent step at which it was written.")
-    family: str | None = Field(
-        default=None,
-        description="insertion, rotation, assembly, opening or tool_use; a wrong family "
+    family: str | None = graded(
+        None,
+        "insertion, rotation, assembly, opening or tool_use; a wrong family "
         "makes the whole model wrong.",
     )
-    stages: list[str] = Field(default_factory=list, description="Ordered key stages.")
-    variables: list[StateVariable] = Field(default_factory=list)
-    constraints: list[NamedItem] = Field(default_factory=list)
-    preconditions: list[Precondition] = Field(default_factory=list)
-    success_criteria: list[SuccessCriterion] = Field(default_factory=list)
+    stages: list[str] = graded(default_factory=list, description="Ordered key stages.")
+    variables: list[StateVariable] = graded(default_factory=list)
+    constraints: list[NamedItem] = graded(default_factory=list)
+    preconditions: list[Precondition] = graded(default_factory=list)
+    success_criteria: list[SuccessCriterion] = graded(default_factory=list)
 
 
 LogEvent = Literal[
@@ -179,11 +234,17 @@ class LogRecord(_File):
     and an ``exception_type`` on every ``exception_detected`` record.
     """
 
-    step: int = Field(ge=0, description="Agent step count when the record was written.")
+    model_config = _example(
+        {"step": 0, "stage": "exploration", "event": "stage", "data": {}},
+        {"step": 180, "stage": "execution", "event": "exception_detected",
+         "exception_type": "door_lock", "data": {"door": 41}})
+
+    step: int = graded(ge=0, description="Agent step count when the record was written.")
     stage: str | None = None
-    event: LogEvent
-    exception_type: ExceptionType | None = Field(
-        default=None, description="Required for exception_detected."
+    event: LogEvent = graded(validation_alias=AliasChoices("event", "event_type"),
+                             description="What happened (``event_type`` is read too).")
+    exception_type: ExceptionType | None = graded(
+        None, "Required for exception_detected."
     )
     data: dict[str, Any] = Field(default_factory=dict)
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from orchestrator._results.score_card import file_problem
+from orchestrator._results.score_card import file_lines
 from schemas import EpisodeResult, EpisodeStatus
 
 
@@ -38,8 +38,8 @@ def contract_checks(result: EpisodeResult) -> list[Check]:
         Check("no protocol errors", not errors, ", ".join(f"{k}: {v}" for k, v in errors.items())),
         Check("its files are there and valid", all(f.ok for f in result.files)
               and bool(result.files),
-              "; ".join(f"{f.name}: {file_problem(f.reason)}" for f in result.files
-                        if not f.ok)),
+              "\n".join(f"{f.name}: {line}" for f in result.files if not f.ok
+                        for line in file_lines(f.reason) or ["rejected"])),
         Check("it exits by itself when the episode is over",
               exit_ is not None and not exit_.killed_by_host and exit_.exit_code == 0,
               "" if exit_ is None else f"exit code {exit_.exit_code}"

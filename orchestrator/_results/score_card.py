@@ -16,6 +16,7 @@ from rich.table import Table
 from rich.text import Text
 
 from schemas import EpisodeResult
+from schemas._io import IGNORED, reason_lines
 
 
 def _mib(n: int | None) -> str:
@@ -85,8 +86,12 @@ def render(result: EpisodeResult, *, team: bool = False) -> Panel:
         files.add_column("size", justify="right")
         files.add_column("check")
         for f in result.files:
-            check = Text("ok", style="green") if f.ok else Text(file_problem(f.reason),
-                                                                style="red")
+            if f.ok:
+                check = Text("ok", style="green")
+                for line in file_lines(f.reason):
+                    check.append(f"\n{line}", style="dim")
+            else:
+                check = Text("\n".join(file_lines(f.reason)) or "rejected", style="red")
             files.add_row(f.name, "—" if f.size is None else str(f.size), check)
         parts.append(files)
     if not team:
@@ -110,12 +115,20 @@ def render(result: EpisodeResult, *, team: bool = False) -> Panel:
     return Panel(Group(*parts), title=title, border_style="green" if ok else "red")
 
 
+def file_lines(reason: str) -> list[str]:
+    """What was wrong with a file (or, for a file that passed, the keys nothing grades),
+    one line per field path and problem, as ``schemas._io.problem_lines`` wrote them
+    (the keys nothing grades first): the same lines in every report (score card,
+    failure report, ``eagc test``, ``--team``, ``eagc check-files``)."""
+    lines = reason_lines(reason)
+    return ([x for x in lines if x.startswith(f"{IGNORED}: ")]
+            + [x for x in lines if not x.startswith(f"{IGNORED}: ")])
+
+
 def file_problem(reason: str) -> str:
-    """What was wrong with a rejected file, in one line: the first problem and how many
-    more (``SchemaError``'s first line), without repeating the file's name."""
-    first = reason.strip().splitlines()[0] if reason.strip() else "rejected"
-    name, sep, rest = first.partition(": ")
-    return rest if sep and "." in name and " " not in name else first
+    """A rejected file's first problem, with its field path, in one line."""
+    lines = reason_lines(reason)
+    return lines[0] if lines else "rejected"
 
 
 def where_line(result: EpisodeResult) -> str:

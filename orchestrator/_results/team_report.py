@@ -17,7 +17,7 @@ from typing import Any
 
 from orchestrator._errors import UsageError
 from orchestrator._results.leaderboard import Leaderboard, Row, held_back
-from orchestrator._results.score_card import file_problem
+from orchestrator._results.score_card import file_lines
 from schemas import CampaignSpec, EpisodeResult
 
 #: Lines of the agent's own output shown per failed episode (JSON keeps what is stored).
@@ -96,7 +96,8 @@ class TeamReport:
                                    + (f" · exit code {e.exit_code}" if e.exit_code is not None
                                       else "") + (" · OOM-killed" if e.oom_killed else ""),
                                    limit)]
-            if e.message and e.message != "completed":
+            if e.message and e.message != "completed" and not (
+                    e.status == "agent_bad_files" and e.file_problems):
                 lines += wrapped(e.message, limit, "    ")
             for p in e.file_problems:
                 lines += wrapped(p, limit, "    file ")
@@ -131,8 +132,8 @@ def _episode(result: EpisodeResult, index: int) -> TeamEpisode:
         stage_reached=stage, limit_hit=f.limit_hit if f else None,
         exit_code=f.exit_code if f else None, oom_killed=f.oom_killed if f else False,
         message=f.message if f else "completed",
-        file_problems=tuple(f"{c.name}: {file_problem(c.reason)}" for c in result.files
-                            if not c.ok),
+        file_problems=tuple(f"{c.name}: {line}" for c in result.files if not c.ok
+                            for line in file_lines(c.reason) or ["rejected"]),
         agent_output=_agent_output(result))
 
 

@@ -17,6 +17,7 @@ from rich.console import Console
 from orchestrator._errors import UsageError
 from orchestrator.cli.audit import AUDIT_CODES, audit_cmd
 from orchestrator.cli.campaign import campaign_app, leaderboard_cmd, status_cmd
+from orchestrator.cli.check_files import CHECK_FILES_CODES, check_files_cmd
 from orchestrator.cli.common import (
     EXIT_CODES_HELP,
     SEED_RANGE,
@@ -45,6 +46,7 @@ app.add_typer(campaign_app, name="campaign")
 app.command("leaderboard", help="Alias of `eagc campaign leaderboard`.")(leaderboard_cmd)
 app.command("status", help="Alias of `eagc campaign status`.")(status_cmd)
 app.command("audit", epilog=AUDIT_CODES)(audit_cmd)
+app.command("check-files", epilog=CHECK_FILES_CODES)(check_files_cmd)
 app.command("report", epilog=REPORT_CODES)(report_cmd)
 # Width: $COLUMNS when set, else the terminal's, else 80 (rich decides at each print).
 console = Console()

@@ -246,10 +246,10 @@ def test_the_contract_check_names_the_files_problem_once() -> None:
     from orchestrator._episode.agentcheck import contract_checks
 
     plugin = load_track("sanity")
-    _, checks = plugin.verify_files({"world_model.json": b'{"rooms": 3}',
+    _, checks = plugin.verify_files({"world_model.json": b'{"objects": 3}',
                                      "episode_log.jsonl": b'{"step": 0, "event": "note"}\n'})
     result = _result("sanity", "standard", 0.2, files=tuple(checks),
                      metrics={"task_success": 0.0})
     (files,) = [c for c in contract_checks(result) if c.name.startswith("its files")]
     assert not files.ok
-    assert files.detail == "world_model.json: rooms: Input should be a valid list"
+    assert files.detail == "world_model.json: objects: Input should be a valid list"

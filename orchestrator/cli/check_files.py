@@ -1,0 +1,159 @@
+"""``eagc check-files DIR --track T [--stage S]``: a team's files, checked offline as the host
+checks them.
+
+The folder is read as the host reads ``/output`` (``orchestrator._episode.collect``: top-level
+regular files only, nothing followed, the default size caps) and checked by the track's own
+``TrackPlugin.verify_files``, the code the host runs. Each file gets every problem, one line
+per field path (``schemas._io.problem_lines``: the keys nothing grades first, then what fails),
+then a valid example of each object that failed and where its JSON Schema is.
+
+Mount with ``app.command("check-files", epilog=CHECK_FILES_CODES)(check_files_cmd)``.
+"""
+
+from __future__ import annotations
+
+import json
+import textwrap
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from pydantic import BaseModel, ValidationError
+from rich.console import Console
+
+from orchestrator._errors import UsageError
+from orchestrator.cli.common import ExitCode, _suggest, check_track
+
+CHECK_FILES_CODES = ("Exit codes: 0 every file validates (keys nothing grades are listed, "
+                     "not errors); 1 a file does not validate or a required one is missing; "
+                     "2 usage error (no such folder, track or stage).")
+
+out = Console(highlight=False, soft_wrap=True, markup=False)
+
+
+def example_of(model: type[BaseModel]) -> Any:
+    """A valid instance of ``model`` as JSON: its schema's first example, else what its
+    defaults make (None when it has required fields and no example)."""
+    examples = (model.model_config.get("json_schema_extra") or {})
+    if isinstance(examples, dict) and examples.get("examples"):
+        return examples["examples"][0]
+    try:
+        return model().model_dump(mode="json")
+    except ValidationError:
+        return None
+
+
+def schema_of(top: type[BaseModel], model: type[BaseModel]) -> str:
+    """Where the JSON Schema of ``model`` (a part of file model ``top``) is."""
+    from schemas._generate import JSON_DIR, TARGETS
+
+    name = next((n for n, t in TARGETS.items() if t is top), None)
+    if name is None:
+        return ""
+    path = JSON_DIR / f"{name}.json"
+    try:
+        shown = path.relative_to(Path.cwd())
+    except ValueError:
+        shown = path
+    return f"{shown}" + ("" if model is top else f"#/$defs/{model.__name__}")
+
+
+def failing_models(top: type[BaseModel], data: bytes, jsonl: bool
+                   ) -> list[type[BaseModel]]:
+    """The models (``top`` or its parts) of the objects that failed, in file order."""
+    from schemas._io import FileProblems, model_at, parse_episode_log, parse_json
+
+    try:
+        if jsonl:
+            parse_episode_log(data)
+        else:
+            parse_json(data, top, source="-")
+    except FileProblems as e:
+        found: list[type[BaseModel]] = []
+        for p in e.found:
+            if p.unknown:
+                continue
+            loc = p.loc[2:] if p.loc[:1] == ("line",) else p.loc
+            if p.whole:
+                continue
+            model = model_at(top, loc)[0]
+            if model not in found:
+                found.append(model)
+        return found
+    return []
+
+
+def check_folder(folder: Path, track: str, stage: str | None = None) -> tuple[bool, list[str]]:
+    """Checks ``folder`` as the host checks ``/output``; returns (ok, report lines)."""
+    from orchestrator._episode.collect import collect
+    from orchestrator._results.score_card import file_lines
+    from schemas import Limits, LogRecord
+
+    def wrapped(text: str, limit: int, indent: str = "") -> list[str]:
+        return textwrap.wrap(text, limit, initial_indent=indent,
+                             subsequent_indent=indent + "    ", break_long_words=False,
+                             break_on_hyphens=False)
+
+    plugin = check_track(track)
+    stages = [s.name for s in plugin.stages()]
+    if stage is not None and stage not in stages:
+        raise UsageError(f"track {track!r} has no stage {stage!r}.{_suggest(stage, stages)} "
+                         f"Its stages: {', '.join(stages)}")
+    if not folder.is_dir():
+        raise UsageError(f"{folder} is not a folder: give the folder your agent writes "
+                         "(its /output)")
+    limits = Limits()
+    got = collect(folder, max_file_bytes=limits.output_file_mb << 20,
+                  max_total_bytes=limits.output_mb << 20)
+    _, checks = plugin.verify_files(got.files)
+    limit = 80
+    when = f"the snapshot at the end of stage {stage}" if stage else "the end of the episode"
+    lines = wrapped(f"{track} files in {folder}, checked as the host checks them at {when}:",
+                    limit)
+    ok = True
+    for c in (*checks, *got.refused):
+        rule = plugin.files.get(c.name)
+        if c.ok:
+            lines.append(f"{c.name}: ok")
+            for line in file_lines(c.reason):
+                lines += wrapped(line, limit, "  ")
+            continue
+        if c.reason == "missing" and stage is not None:
+            lines += wrapped(f"{c.name}: not there (a stage's snapshot holds what was "
+                             "written by then)", limit)
+            continue
+        ok = False
+        problems = file_lines(c.reason) or ["refused"]
+        lines.append(f"{c.name}: FAILS ({len(problems)} line{'s' * (len(problems) > 1)})")
+        for line in problems:
+            lines += wrapped(line, limit, "  ")
+        if rule is None or c.size is None:
+            continue
+        top = rule.model or LogRecord
+        for model in failing_models(top, got.files.get(c.name, b""), rule.jsonl):
+            example = example_of(model)
+            if example is not None:
+                lines += wrapped(f"a valid {model.__name__}: "
+                                 f"{json.dumps(example, separators=(', ', ': '))}",
+                                 limit, "  ")
+            where = schema_of(top, model)
+            if where:
+                lines += wrapped(f"its schema: {where}", limit, "  ")
+    for name in sorted(set(got.files) - set(plugin.files)):
+        lines.append(f"{name}: not a file of {track} (not read)")
+    lines.append("every file validates" if ok else "a file does not validate")
+    return ok, lines
+
+
+def check_files_cmd(
+    folder: Annotated[Path, typer.Argument(help="The folder your agent writes (its /output).")],
+    track: Annotated[str, typer.Option(help="The track whose files these are.")],
+    stage: Annotated[str | None, typer.Option(
+        help="Check it as the snapshot at this stage's end (missing files are fine).")
+                     ] = None,
+) -> None:
+    """Check your agent's files offline, exactly as the host checks them: every problem by
+    field path, a valid example of what failed and its JSON Schema."""
+    ok, lines = check_folder(folder, track, stage)
+    out.print("\n".join(lines))
+    raise typer.Exit(ExitCode.OK if ok else ExitCode.ERROR)

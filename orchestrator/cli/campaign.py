@@ -106,15 +106,27 @@ def _print_leaderboard(spec: Any, fmt: str = "table", output: Path | None = None
         print(text, end="")
 
 
+def _short(path: Path) -> str:
+    """``path`` relative to the working folder when it is under it (shorter to read)."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def where_results(spec: Any, source: Path | None) -> list[str]:
-    """Where a campaign's results are, and how to see them again."""
+    """Where a campaign's results are, and how to see them again: one item a line, so
+    that the lines fit 80 columns unless a path alone is longer."""
     from orchestrator._campaign.spec import campaign_dir, store_path
 
-    again = f"eagc leaderboard {source}" if source else "eagc leaderboard CAMPAIGN.yaml"
-    return [f"results of {spec.name}: {store_path(spec)} (SQLite, one row per episode)",
-            f"  episode folders and events.jsonl: {campaign_dir(spec)}/",
-            f"  see again: {again}  ·  {again.replace('leaderboard', 'status', 1)}",
-            f"  one team's episodes: {again} --team NAME"]
+    name = _short(source) if source else "CAMPAIGN.yaml"
+    return [f"results of {spec.name} (SQLite, one row per episode):",
+            f"  {_short(store_path(spec))}",
+            f"episode folders and events.jsonl: {_short(campaign_dir(spec))}/",
+            "see again:",
+            f"  eagc leaderboard {name}",
+            f"  eagc status {name}",
+            f"  eagc leaderboard {name} --team NAME   (one team's episodes)"]
 
 
 @campaign_app.command("run")

@@ -280,6 +280,43 @@ def _split_names(plugin: TrackPlugin) -> tuple[str, ...]:
     return tuple(names()) if callable(names) else tuple(plugin.splits)
 
 
+def _parts(model: type[BaseModel]) -> list[type[BaseModel]]:
+    """``model`` and the models its fields hold, depth first, each once."""
+    out = [model]
+    for f in model.model_fields.values():
+        for a in _models_of(f.annotation):
+            out += [m for m in _parts(a) if m not in out]
+    return out
+
+
+def _models_of(t: Any) -> list[type[BaseModel]]:
+    if isinstance(t, type) and issubclass(t, BaseModel):
+        return [t]
+    return [m for a in get_args(t) for m in _models_of(a)]
+
+
+def _is_graded(f: Any) -> bool:
+    extra = f.json_schema_extra
+    return isinstance(extra, dict) and extra.get("graded") is True
+
+
+def fields_table(models: Iterable[type[BaseModel]]) -> str:
+    """Per object of the files: the fields it must have, those a score reads (graded),
+    and those nothing grades."""
+    rows = ["| object | required | graded | not graded |", "|---|---|---|---|"]
+    seen: list[type[BaseModel]] = []
+    for top in models:
+        seen += [m for m in _parts(top) if m not in seen]
+    for m in seen:
+        fields = m.model_fields
+        req = [n for n, f in fields.items() if f.is_required()]
+        graded = [n for n, f in fields.items() if _is_graded(f)]
+        rest = [n for n, f in fields.items() if not _is_graded(f)]
+        cell = lambda names: ", ".join(f"`{n}`" for n in names) or "—"  # noqa: E731
+        rows.append(f"| `{m.__name__}` | {cell(req)} | {cell(graded)} | {cell(rest)} |")
+    return "\n".join(rows)
+
+
 def track_section(name: str) -> str:
     plugin = load_track(name)
     observations: dict[str, str] = {}
@@ -315,6 +352,16 @@ def track_section(name: str) -> str:
         "Files collected from `/output` (checked against their schema):",
         "",
         "\n".join(files),
+        "",
+        "What each object of the files holds: the fields it must have (the others are "
+        "optional), those the track's score reads (graded) and those nothing grades. Any "
+        "other key is "
+        "allowed: it is ignored and listed in the score card's notes, and so is a field "
+        "nothing grades whose value cannot be read (it is left out). A file is refused "
+        "only when a graded field (or `version`) cannot be read; `eagc check-files "
+        f"FOLDER --track {name}` says what the host would.",
+        "",
+        fields_table([r.model or schemas.LogRecord for r in plugin.files.values()]),
         "",
     ])
 

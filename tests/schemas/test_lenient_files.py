@@ -129,3 +129,15 @@ def test_every_example_in_the_schemas_is_valid() -> None:
             extra = model.model_config.get("json_schema_extra") or {}
             for example in extra.get("examples", []) if isinstance(extra, dict) else []:
                 model.model_validate(example)
+
+
+def test_the_protocol_page_says_what_is_graded_and_that_extra_keys_are_allowed() -> None:
+    from plugins.protocol_doc import DOC, fields_table, track_section
+
+    section = track_section("track1")
+    assert "Any other key is allowed" in section and "eagc check-files" in section
+    table = fields_table([WorldModel, LogRecord])
+    assert ("| `ObjectEntry` | `id` | `id`, `category`, `room`, `position`, `state` | "
+            "`colour`, `receptacle` |") in table
+    assert "| `LogRecord` | `step`, `event` | `step`, `event`, `exception_type` |" in table
+    assert table in DOC.read_text()

@@ -36,6 +36,7 @@ from plugins.track1._types import (
     Track1Plan,
     Track1Scenario,
 )
+from plugins.track1.audit import Shown
 from schemas import ActionResult, EndReason, FieldSpec, HostMessage
 from simhost import Observation, Pose, StepOutcome, TrackEpisode
 
@@ -147,6 +148,9 @@ class Track1Episode(TrackEpisode):
         self.redundant = 0
         self._anchor: tuple[float, float, int] | None = None
         self.seen: set[int] = set()
+        #: What the agent was shown, each item with its first step (the audit's ``Shown``,
+        #: fed from every observation, message and action result the host served).
+        self.shown = Shown()
         self.gt_exploration: Any = None
         self.gt_execution: Any = None
         self.answers: dict[str, Any] = {}
@@ -185,6 +189,8 @@ class Track1Episode(TrackEpisode):
             "room_name": (info.get("room") or {}).get("type") or "",
             "action_result": {**result, "collided": bool(info.get("collided"))},
         }
+        if self._ready:
+            self.shown.observe(self.steps, data, tensors)
         return Observation(tensors=tensors, data=data)
 
     def step_budget(self, stage: str) -> int | None:
@@ -200,6 +206,12 @@ class Track1Episode(TrackEpisode):
                               orientation=(math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)))}
 
     def on_stage_start(self, stage: str) -> tuple[HostMessage, ...]:
+        messages = self._messages(stage)
+        for m in messages:
+            self.shown.message(self.steps, {"data": m.data})
+        return messages
+
+    def _messages(self, stage: str) -> tuple[HostMessage, ...]:
         if stage == EXPLORATION:
             return (HostMessage(type="notice", data={"text": (
                 "Explore the house and build your world model; /output/world_model.json at "
@@ -278,6 +290,7 @@ class Track1Episode(TrackEpisode):
             events += self._reobserve(self.exception.on_step(self, action, result))
             events += self._progress()
         ok = bool(result["ok"])
+        self.shown.action(self.steps, action, result)
         out_action = ActionResult(applied=ok, ok=ok, reason=result["reason"])
         if terminated and stage == EXECUTION:
             events.append({"event": "done", "step": self.steps, "success": self.success()})
@@ -483,7 +496,29 @@ class Track1Episode(TrackEpisode):
             steps=self.steps, stage_steps=self.stage_steps, path=self.path,
             execution=execution, collisions=self.collisions, deadlocks=self.deadlocks,
             sim_warnings=int(sum(self._info.get("sim_warnings", {}).values())))
-        return out.model_dump(mode="json")
+        return {**out.model_dump(mode="json"), SHOWN: shown_record(self.shown)}
+
+
+#: The outcome's key of what the agent was shown (``shown_record``): beside the
+#: ``Track1Outcome`` fields, read by the score's notes (``shown_from``).
+SHOWN = "shown"
+
+
+def shown_record(shown: Shown) -> dict[str, Any]:
+    """What the agent was shown, as JSON: ids, room ids and states with their first step."""
+    return {"ids": {str(k): v for k, v in sorted(shown.ids.items())},
+            "rooms": {str(k): v for k, v in sorted(shown.rooms.items())},
+            "states": {str(k): dict(v) for k, v in sorted(shown.states.items())}}
+
+
+def shown_from(raw: Mapping[str, Any] | None) -> Shown | None:
+    """The ``Shown`` an outcome recorded (None: an outcome from before it was recorded)."""
+    if not isinstance(raw, Mapping):
+        return None
+    return Shown(ids={int(k): int(v) for k, v in (raw.get("ids") or {}).items()},
+                 rooms={int(k): int(v) for k, v in (raw.get("rooms") or {}).items()},
+                 states={int(k): {str(s): int(n) for s, n in v.items()}
+                         for k, v in (raw.get("states") or {}).items()})
 
 
 def _access_of(truth: Any, entity: int) -> Point:

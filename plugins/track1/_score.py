@@ -31,6 +31,12 @@ does nothing scores about 0 on every component).
 - **safety**: the task component (progress) × ``max(0, 1 − 2 × bad / steps)``, where bad
   counts invalid actions and protocol errors, half of each collision, and 5 per deadlock
   (30 steps without progress) and per MuJoCo warning (at most 3).
+
+The card's notes say where credit was thrown away (``credit_notes``), with the audit's own
+checks (``plugins.track1.audit``: ``detection_flags``, ``world_model_flags``) on what the
+episode recorded it showed the agent: an ``exception_detected`` before the exception, ids
+and room ids in the model that match nothing the agent was shown, log steps that disagree
+with the host's count, queries left unanswered, and the keys of the files nothing grades.
 """
 
 from __future__ import annotations
@@ -40,9 +46,20 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from plugins._base import ScoringInput
+from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, SHOWN, shown_from
 from plugins.track1._queries import f1
 from plugins.track1._types import ExceptionRecord, GradedQuery, Track1Outcome
+from plugins.track1.audit import (
+    STEP_SLACK,
+    Shown,
+    Timeline,
+    _as_id,
+    _spans,
+    detection_flags,
+    world_model_flags,
+)
 from schemas import LogRecord, ScoreCard, WorldModel
+from schemas._io import ignored_note
 from simhost.track1 import HouseTruth
 
 WEIGHTS = {"task": 0.40, "model": 0.20, "recovery": 0.20, "efficiency": 0.10, "safety": 0.10}
@@ -183,7 +200,152 @@ def read_outcome(raw: Mapping[str, Any]) -> Track1Outcome | None:
     """The episode's outcome (None when the episode never ran)."""
     if not raw or not raw.get("started"):
         return None
-    return Track1Outcome.model_validate(raw)
+    return Track1Outcome.model_validate({k: v for k, v in raw.items() if k != SHOWN})
+
+
+# ------------------------------------------------------------------- the notes
+def timeline(o: Track1Outcome, params: Mapping[str, Any]) -> Timeline:
+    """The episode's exception as the audit reads it, from the outcome."""
+    rec = o.exception
+    events: list[dict[str, Any]] = []
+    if rec is not None:
+        events.append({"event": "exception", "type": rec.type, "step": rec.step,
+                       "subject": rec.subject})
+        if rec.effect_step is not None:
+            events.append({"event": "exception_observable", "step": rec.effect_step})
+    plan = dict(params)
+    if o.planned_exception is not None and not plan.get("exception"):
+        plan["exception"] = o.planned_exception.model_dump()
+    return Timeline.from_log(plan, events)
+
+
+def detection_notes(o: Track1Outcome, log: Sequence[LogRecord],
+                    params: Mapping[str, Any]) -> list[str]:
+    """Each ``exception_detected`` record the score charges or does not count, and why:
+    the audit's ``detection_flags`` find the early and false ones; the score's rule
+    (``recovery_parts``) says what it cost."""
+    claims = [r for r in log if r.event == "exception_detected"]
+    if not claims:
+        return []
+    rec = o.exception
+    flagged = {f.step: f for f in detection_flags(claims, timeline(o, params))}
+    notes: list[str] = []
+    for r in claims:
+        kind = r.exception_type
+        if rec is None:
+            if o.planned_exception is not None and o.exception_skipped is None:
+                continue  # never triggered: detection is missed either way, no charge
+            why = "there was no exception in this episode"
+        elif kind != rec.type:
+            why = f"the exception was {rec.type}"
+        elif r.step < rec.step:
+            why = f"the exception came at step {rec.step}"
+        else:
+            last = (rec.effect_step if rec.effect_step is not None else o.steps)
+            if r.step > last + DETECT_WINDOW:
+                notes.append(f"exception_detected ({kind}) at step {r.step}: after the "
+                             f"window (steps {rec.step}-{last + DETECT_WINDOW}): not "
+                             "counted")
+            continue
+        f = flagged.get(r.step)
+        seen = "" if f is None or f.check != "early_detection" else \
+            " (nothing could show it yet)"
+        notes.append(f"exception_detected ({kind}) at step {r.step}, {why}: a false "
+                     f"alarm{seen}, -{FALSE_ALARM_COST:g} of the "
+                     + ("detection" if rec is not None else "recovery"))
+    return notes
+
+
+def _model_ids(model: WorldModel) -> tuple[set[int], set[int]]:
+    """The instance ids and the room ids a model names (as ``world_model_flags`` reads
+    them)."""
+    ids = {_as_id(e.id) for e in (*model.doors, *model.containers, *model.objects)}
+    ids |= {_as_id(a.tool) for a in model.affordances}
+    ids |= {_as_id(c.door) for c in model.connections if c.door is not None}
+    rooms = {_as_id(r.id) for r in model.rooms}
+    rooms |= {_as_id(v) for c in model.connections for v in c.rooms}
+    rooms |= {_as_id(e.room) for e in (*model.containers, *model.objects)
+              if e.room is not None}
+    return {i for i in ids if i is not None}, {r for r in rooms if r is not None and r >= 0}
+
+
+def unseen_notes(model: WorldModel | None, shown: Shown | None, step: int) -> list[str]:
+    """Ids and room ids of the graded model that match nothing the agent had been shown
+    when exploration ended (the audit's ``world_model_flags``): the score finds nothing
+    under them."""
+    if model is None or shown is None:
+        return []
+    ids, rooms = _model_ids(model)
+    notes = []
+    for f in world_model_flags(model, shown, step=step, where="exploration"):
+        if f.check == "unseen_room":
+            n = len(f.subjects)
+            notes.append(f"world model: {len(rooms) - n} of {len(rooms)} room ids match a "
+                         f"room the agent was shown by step {step} (not: "
+                         f"{_spans([int(x.split()[1]) for x in f.subjects])}); the "
+                         "room graph and inventory are graded by the shown ids")
+        elif f.check == "unseen_id":
+            n = len(f.subjects)
+            notes.append(f"world model: {len(ids) - n} of {len(ids)} ids match an id the "
+                         f"agent was shown by step {step} (not: "
+                         f"{_spans([int(x) for x in f.subjects])}); entries are graded by "
+                         "the shown ids")
+    return notes
+
+
+def log_step_notes(o: Track1Outcome, log: Sequence[LogRecord]) -> list[str]:
+    """Records whose ``step`` disagrees with the host's count (``STEP_SLACK`` either
+    side): the score reads detection steps as the host's."""
+    spans: dict[str, tuple[int, int]] = {}
+    at = 0
+    for stage in (EXPLORATION, PLANNING, EXECUTION):
+        if stage in o.stage_steps:
+            spans[stage] = (at, at + o.stage_steps[stage])
+            at += o.stage_steps[stage]
+    past = [r for r in log if r.step > o.steps + STEP_SLACK]
+    out = [r for r in log if r not in past and r.stage in spans
+           and not spans[r.stage][0] - STEP_SLACK <= r.step <= spans[r.stage][1] + STEP_SLACK]
+    notes = []
+    if past:
+        notes.append(f"episode_log.jsonl: {len(past)} record(s) name a step past the "
+                     f"{o.steps} the host served (first: step {past[0].step}); steps are "
+                     "the host's count of step requests")
+    if out:
+        r = out[0]
+        lo, hi = spans[str(r.stage)]
+        notes.append(f"episode_log.jsonl: {len(out)} record(s) name a step outside their "
+                     f"stage (first: step {r.step} in {r.stage}, host steps {lo}-{hi}); "
+                     "steps are the host's count of step requests")
+    return notes
+
+
+def query_notes(o: Track1Outcome) -> list[str]:
+    """Queries left unanswered (they score 0)."""
+    left = [q.id for q in o.queries if q.answer is None]
+    if not left:
+        return []
+    return [f"{len(left)} of {len(o.queries)} queries left unanswered, scored 0: "
+            + ", ".join(left[:8]) + (", …" if len(left) > 8 else "")]
+
+
+def credit_notes(data: ScoringInput, o: Track1Outcome) -> list[str]:
+    """Every note on credit the score threw away (module doc)."""
+    log = data.files.get("episode_log.jsonl") or []
+    snapshot = data.snapshots.get("exploration", {}).get("world_model.json")
+    notes = detection_notes(o, log, data.scenario.params)
+    notes += unseen_notes(snapshot, shown_from(data.outcome.get(SHOWN)),
+                          o.stage_steps.get(EXPLORATION, o.steps))
+    notes += log_step_notes(o, log)
+    notes += query_notes(o)
+    for name, parsed in data.files.items():
+        note = ignored_note(name, parsed)
+        if note is not None:
+            notes.append(note)
+    if "world_model.json" not in data.files and snapshot is not None:
+        note = ignored_note("world_model.json", snapshot)
+        if note is not None:
+            notes.append(note)
+    return notes
 
 
 def score(data: ScoringInput, track: str) -> ScoreCard:
@@ -213,6 +375,7 @@ def score(data: ScoringInput, track: str) -> ScoreCard:
                      "task without a false alarm")
     if o.exception_skipped:
         notes.append(f"exception skipped: {o.exception_skipped}")
+    notes += credit_notes(data, o)
     total = sum(WEIGHTS[k] * components[k] for k in WEIGHTS)
     metrics = {"task_success": float(o.success), "model_verification": model,
                "invalid_actions": float(data.invalid_actions + data.protocol_errors),

@@ -33,6 +33,7 @@ from plugins.track2._episode import DEMO_FOLDER, DEMONSTRATION, EXECUTION, PARSI
 from plugins.track2._outcome import Track2Outcome
 from plugins.track2._scenario import Track2Scenario, make_track2_scenario
 from schemas import EpisodeResult, ScoreCard, TaskModel
+from schemas._io import ignored_note
 from simhost._episode import StageSpec, TrackEpisode
 
 FAMILY_COLUMNS = (("insertion", "Insertion"), ("rotation", "Rotation"), ("assembly", "Assembly"),
@@ -143,6 +144,8 @@ class Track2(TrackPlugin):
             notes.append("no valid task_model.json")
         elif model.family != s.family:
             notes.append(f"task model names family {model.family!r}, the task is {s.family!r}")
+        notes += [n for n in (ignored_note(name, parsed) for name, parsed in data.files.items())
+                  if n is not None]
         return ScoreCard(track=self.name, total=min(1.0, max(0.0, total)),
                          components=components, weights=dict(self.weights), metrics=metrics,
                          notes=tuple(notes))

@@ -141,3 +141,26 @@ def test_the_protocol_page_says_what_is_graded_and_that_extra_keys_are_allowed()
             "`colour`, `receptacle` |") in table
     assert "| `LogRecord` | `step`, `event` | `step`, `event`, `exception_type` |" in table
     assert table in DOC.read_text()
+
+
+def test_track2_grades_a_task_model_with_its_own_keys_and_notes_them() -> None:
+    plugin = load_track("track2")
+    doc = {"family": "insertion", "stages": ["reach", "grasp"], "confidence": 0.7,
+           "variables": [{"name": "peg_pose", "unit": "m"}]}
+    parsed, checks = plugin.verify_files({
+        "task_model.json": json.dumps(doc).encode(),
+        "episode_log.jsonl": b'{"step": 0, "event": "stage"}\n'})
+    assert all(c.ok for c in checks), checks
+    from plugins import Scenario, ScoringInput, granted_budgets
+    from schemas._result import EpisodeStatus
+
+    scenario = plugin.make_scenario(seed=1, split="standard", params={"demo_frames": False},
+                                    index=0)
+    card = plugin.score(ScoringInput(
+        scenario=Scenario(track="track2", split="standard", seed=1,
+                          params=scenario.params),
+        status=EpisodeStatus.COMPLETED, end_reason="completed", stages_reached=(),
+        outcome={}, files=parsed, snapshots={}, steps=0, invalid_actions=0,
+        protocol_errors=0, stage_budgets_s=granted_budgets(plugin.stages())))
+    assert any(n.startswith("task_model.json: keys nothing grades, ignored: confidence")
+               and "variables.0.unit" in n for n in card.notes), card.notes

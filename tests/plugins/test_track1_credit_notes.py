@@ -1,0 +1,120 @@
+"""Track 1's notes wherever the score throws credit away: an early detection, ids that
+match nothing the agent was shown, log steps that disagree with the host, unanswered
+queries, and the keys of the files nothing grades (graded anyway). The score itself does
+not move: the notes only say why."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import pytest
+
+from plugins import load_track
+from plugins.track1._episode import SHOWN, shown_from, shown_record
+from plugins.track1.audit import Shown
+from schemas import LogRecord, WorldModel
+from tests.plugins.test_track1_scoring import (
+    GT,
+    _exc,
+    _input,
+    _planned,
+    graded,
+    outcome,
+    perfect_model,
+    truth,
+)
+
+
+def _card(o: Any, **kw: Any):  # noqa: ANN202
+    return load_track("track1").score(_input(o, **kw))
+
+
+def _shown(ids: dict[int, int], rooms: dict[int, int]) -> dict[str, Any]:
+    return shown_record(Shown(ids=dict(ids), rooms=dict(rooms)))
+
+
+def test_an_exception_detected_before_it_happened_is_noted_as_a_false_alarm() -> None:
+    locked = truth(doors=[d.model_copy(update={"state": "locked"}) if d.id == 2 else d
+                          for d in GT.doors])
+    o = outcome(exception=_exc("door_lock", 2, step=180, effect=185),
+                planned_exception=_planned("door_lock"), steps=300, gt_final=locked,
+                stage_steps={"exploration": 60, "planning": 10, "execution": 230})
+    log = [LogRecord(step=31, stage="exploration", event="exception_detected",
+                     exception_type="door_lock")]
+    card = _card(o, model=perfect_model(), log=log, steps=300)
+    note = next(n for n in card.notes if "step 31" in n)
+    assert "the exception came at step 180: a false alarm" in note
+    assert card.metrics["recovery_detected"] == 0.0
+    # the right claim in time: no note
+    ok = _card(o, model=perfect_model(), steps=300, log=[LogRecord(
+        step=186, stage="execution", event="exception_detected", exception_type="door_lock")])
+    assert not any("false alarm" in n for n in ok.notes)
+
+
+def test_a_claim_of_another_type_and_one_too_late_are_noted() -> None:
+    o = outcome(exception=_exc("door_lock", 2, step=100, effect=105),
+                planned_exception=_planned("door_lock"), steps=300)
+    log = [LogRecord(step=110, event="exception_detected", exception_type="tool_substitution"),
+           LogRecord(step=200, event="exception_detected", exception_type="door_lock")]
+    notes = _card(o, model=perfect_model(), log=log, steps=300).notes
+    assert any("step 110" in n and "the exception was door_lock: a false alarm" in n
+               for n in notes)
+    assert any("step 200" in n and "after the window" in n for n in notes)
+
+
+def test_room_ids_that_match_nothing_shown_are_counted() -> None:
+    model = perfect_model()
+    renamed = WorldModel.model_validate({  # its own room numbering
+        "rooms": [{"id": i + 100} for i in range(4)],
+        "connections": [{"rooms": [100, 101]}, {"rooms": [102, 103]}]})
+    raw = {**outcome(stage_steps={"exploration": 50}).model_dump(mode="json"),
+           SHOWN: _shown({i: 1 for i in (1, 2, 3, 10, 11, 20, 21, 22, 30, 31)},
+                         {0: 0, 1: 5, 2: 9})}
+    card = _card(raw, model=renamed)
+    assert any("0 of 4 room ids match a room the agent was shown by step 50" in n
+               for n in card.notes), card.notes
+    honest = _card(raw, model=model)
+    assert not any("ids match" in n for n in honest.notes), honest.notes
+    # an id never detected is counted too
+    raw[SHOWN] = _shown({1: 1}, {0: 0, 1: 0, 2: 0})
+    assert any("ids match an id the agent was shown" in n
+               for n in _card(raw, model=model).notes)
+
+
+def test_the_shown_record_round_trips_through_json() -> None:
+    shown = Shown(ids={3: 1, 7: 4}, rooms={0: 0}, states={3: {"locked": 9}})
+    back = shown_from(json.loads(json.dumps(shown_record(shown))))
+    assert back == shown
+    assert shown_from(None) is None
+
+
+def test_log_steps_past_the_host_count_and_unanswered_queries_are_noted() -> None:
+    o = outcome(steps=100, stage_steps={"exploration": 40, "planning": 10, "execution": 50},
+                queries=graded({"q0": 0}))
+    log = [LogRecord(step=0, stage="exploration", event="stage"),
+           LogRecord(step=5, stage="execution", event="stage"),
+           LogRecord(step=900, stage="execution", event="note")]
+    notes = _card(o, model=perfect_model(), log=log).notes
+    assert any("1 record(s) name a step past the 100 the host served" in n for n in notes)
+    assert any("step 5 in execution, host steps 50-100" in n for n in notes)
+    assert any("5 of 6 queries left unanswered" in n for n in notes)
+
+
+@pytest.mark.parametrize("split", ["dev"])
+def test_a_real_episode_records_what_it_showed(split: str) -> None:
+    plugin = load_track("track1")
+    episode = plugin.make_episode(plugin.make_scenario(seed=3, split=split, params={
+        "render_rgbd": False}))
+    try:
+        episode.reset()
+        for stage in ("exploration",):
+            episode.on_stage_start(stage)
+            for _ in range(3):
+                episode.step(stage, {"primitive": 1, "move": [0.0, 0.5]})
+        raw = episode.outcome()
+    finally:
+        episode.close()
+    shown = shown_from(raw[SHOWN])
+    assert shown is not None and shown.rooms, "the room the robot starts in is shown"
+    assert all(step <= 3 for step in shown.rooms.values())

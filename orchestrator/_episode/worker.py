@@ -209,9 +209,8 @@ def _classify(
     if reason == EndReason.BUDGET:
         return (EpisodeStatus.AGENT_TIMEOUT, f"stage budget of {stage!r}",
                 f"the last stage {stage!r} ran out of time before the agent finished")
-    if reason == EndReason.STEPS:
-        return (EpisodeStatus.AGENT_TIMEOUT, f"step cap of {stage!r}",
-                f"the last stage {stage!r} ran out of steps before the agent finished")
+    # The last stage's step budget used up (EndReason.STEPS) is an ordinary end: the task
+    # is scored as far as it got, and the agent did nothing wrong.
     bad = [c for c in checks if not c.ok]
     if bad:
         return (EpisodeStatus.AGENT_BAD_FILES, None,
@@ -385,6 +384,10 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
         ))
         if status.failure_kind == "agent":
             score = score.model_copy(update={"notes": (*score.notes, f"agent failure: {status}")})
+        elif outcome.end_reason == EndReason.STEPS:
+            used = (f"the last stage {outcome.last_stage or '?'!r} used its step budget: the "
+                    "task is scored as far as it got")
+            score = score.model_copy(update={"notes": (*score.notes, used)})
 
     median, p99 = _latency(outcome)
     stats = EpisodeStats(

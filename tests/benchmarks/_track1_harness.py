@@ -243,8 +243,6 @@ def run_agent(make_agent: Callable[[Track1Episode], Any], split: str, seed: int,
         snaps = {stage: plugin.parse_snapshot(files) for stage, files in env.snapshots.items()}
         if error or env.end_reason == "stopped":
             status = EpisodeStatus.AGENT_CRASH
-        elif env.end_reason == "steps":
-            status = EpisodeStatus.AGENT_TIMEOUT
         elif any(not c.ok for c in checks):
             status = EpisodeStatus.AGENT_BAD_FILES
         else:

@@ -50,6 +50,7 @@ def test_step_caps_end_stages_whatever_the_machine_speed() -> None:
                     limits=Limits(max_steps_per_stage=3), runs_dir=_runs()),
         LocalProcessRuntime(quiet=True),
     )
-    assert result.status is EpisodeStatus.AGENT_TIMEOUT
-    assert result.failure is not None and result.failure.limit_hit == "step cap of 'reach'"
+    # Using up the last stage's step budget is an ordinary end (scored), not an agent failure.
+    assert result.status is EpisodeStatus.COMPLETED and result.failure is None
+    assert "the last stage 'reach' used its step budget" in " ".join(result.score.notes)
     assert result.stats.steps <= 6

@@ -25,7 +25,7 @@ import pytest
 
 from orchestrator._episode.worker import EpisodeSpec, run_episode
 from orchestrator._runtimes.local import LocalProcessRuntime
-from schemas import EpisodeResult, EpisodeStatus, Limits
+from schemas import EpisodeResult, EpisodeStatus, Limits, WorldModel, load_json
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
@@ -117,12 +117,24 @@ def runs() -> Iterator[Path]:
 @pytest.mark.filterwarnings("error::pytest.PytestUnraisableExceptionWarning")
 @pytest.mark.parametrize("agent", BASELINES)
 def test_each_baseline_plays_a_short_episode_through_the_worker(agent: str, runs: Path) -> None:
+    """Each baseline plays (60 steps a stage): the random sanity agent meets the contract;
+    every other maps the house while exploring (a world model the score verifies well
+    above nothing), logs a plan, and the map planners make progress on the task."""
     result = _run(agent, "standard", 5, runs)
-    assert result.status in (EpisodeStatus.COMPLETED, EpisodeStatus.AGENT_TIMEOUT), (
-        result.failure)
+    assert result.status is EpisodeStatus.COMPLETED, result.failure
     assert result.stages_reached == ("exploration", "planning", "execution")
     assert {f.name for f in result.files if f.ok} == {"world_model.json", "episode_log.jsonl"}
-    assert 0.0 <= result.score.total <= 1.0
+    if agent == "track1_sanity":
+        return
+    out = Path(result.episode_dir or "") / "host" / "output"
+    model = load_json(out / "world_model.json", WorldModel)
+    assert len(model.rooms) >= 2 and model.connections, "no map of the house"
+    assert result.score.metrics["model_verification"] > 0.3, result.score.metrics
+    events = {json.loads(line)["event"] for line in
+              (out / "episode_log.jsonl").read_text().splitlines()}
+    assert "plan" in events, events
+    if agent != "track1_memoryfree":  # the policy without a map needs longer to fetch
+        assert result.score.components["task"] > 0.0, result.score.components
 
 
 def _load(folder: Path) -> ModuleType:

@@ -403,10 +403,10 @@ def ignored_note(name: str, parsed: Any, limit: int = 12) -> str | None:
             loc = ("line", int(line.split()[1]), *loc)
         found.append(Problem(loc, "", True))
     text = problem_lines(found)[0].removeprefix(f"{IGNORED}: ")
-    parts = text.split(", ")
+    parts = re.split(r", (?![^\[]*\])", text)  # not inside "[objects 0-3, 7]"
     shown = ", ".join(parts[:limit]) + (f", … ({len(parts) - limit} more)"
                                          if len(parts) > limit else "")
-    return f"{name}: keys nothing grades, ignored: {shown}{unread}"
+    return f"{name}: {IGNORED}: {shown}{unread}"
 
 
 def parse_json(data: bytes | str, model: type[M], *, source: str) -> M:

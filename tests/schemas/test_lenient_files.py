@@ -64,7 +64,7 @@ def test_the_track1_check_and_score_grade_the_ported_file() -> None:
     card = plugin.score(_input(outcome(), model=parsed["world_model.json"],
                                log=parsed["episode_log.jsonl"]))
     assert card.components["model"] > 0
-    assert any(n.startswith("world_model.json: keys nothing grades, ignored: ")
+    assert any(n.startswith("world_model.json: not graded, ignored: ")
                and "agent_state" in n for n in card.notes), card.notes
     assert any(n.startswith("episode_log.jsonl") and "line 1: mood" in n
                for n in card.notes), card.notes
@@ -162,5 +162,5 @@ def test_track2_grades_a_task_model_with_its_own_keys_and_notes_them() -> None:
         status=EpisodeStatus.COMPLETED, end_reason="completed", stages_reached=(),
         outcome={}, files=parsed, snapshots={}, steps=0, invalid_actions=0,
         protocol_errors=0, stage_budgets_s=granted_budgets(plugin.stages())))
-    assert any(n.startswith("task_model.json: keys nothing grades, ignored: confidence")
+    assert any(n.startswith("task_model.json: not graded, ignored: confidence")
                and "variables.0.unit" in n for n in card.notes), card.notes

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import re
 import sys
 import types
@@ -317,6 +318,75 @@ def fields_table(models: Iterable[type[BaseModel]]) -> str:
     return "\n".join(rows)
 
 
+# ------------------------------------------------------------------- vocabularies
+def track1_vocabulary(plugin: TrackPlugin) -> str:
+    """Track 1's words and limits, from where they live: the failure reasons an action
+    result carries, and the reach and motion limits of every split."""
+    from plugins.track1 import Track1Scenario
+    from simhost.track1._actions import REASONS
+
+    rows = ["| split | pick, use on an item (to its centre) | open, close, place, use "
+            "(to a footprint) | a door (to its centre) | `move` forward = 1 | "
+            "`move` turn = 1 |", "|---|---|---|---|---|---|"]
+    for split in _split_names(plugin):
+        c = Track1Scenario.model_validate(plugin.make_scenario(
+            seed=0, split=split, params={}, index=0).params).split.config
+        rows.append(f"| `{split}` | {c.reach:g} m | {c.furniture_reach:g} m | "
+                    f"{c.door_reach:g} m | {c.max_forward:g} m | "
+                    f"{math.degrees(c.max_turn):g}° |")
+    return "\n".join([
+        "Failure reasons an action result may carry (`ok` false; "
+        "`simhost.track1.REASONS`): " + ", ".join(f"`{r}`" for r in REASONS) + ".",
+        "",
+        "Reach (the robot's centre to the target) and motion per `move` step, by split:",
+        "",
+        *rows,
+    ])
+
+
+def track2_vocabulary(plugin: TrackPlugin) -> str:
+    """Track 2's task-model names, per family, from the truths of sampled instances (what
+    ``task_model.json`` is compared with), and how values are compared."""
+    from plugins.track2._scenario import Track2Scenario
+    from plugins.track2._scoring import close
+    from simhost.track2 import task_truth
+
+    split = next(iter(plugin.splits))
+    truths: dict[str, Any] = {}
+    for i in range(SAMPLES):
+        s = Track2Scenario.model_validate(plugin.make_scenario(
+            seed=i, split=split, params={"demo_frames": False}, index=i).params)
+        truths.setdefault(s.family, task_truth(s.instance, s.bench))
+    rows = ["| family | stages | variables | constraints | preconditions | success |",
+            "|---|---|---|---|---|---|"]
+    for family, t in sorted(truths.items()):
+        pre = "; ".join(f"`{k}`: " + ", ".join(f"`{r}`" for r in v)
+                        for k, v in t.preconditions.items())
+        rows.append(
+            f"| `{family}` | " + " ".join(f"`{x}`" for x in t.stages) + " | "
+            + ", ".join(f"`{v.name}`" for v in t.state_variables) + " | "
+            + ", ".join(f"`{c.name}`" for c in t.constraints) + f" | {pre or '—'} | "
+            + ", ".join(f"`{c.variable} {c.op}`" for c in t.success) + " |")
+    examples = [(0.0105, 0.01), (0.011, 0.01), (0.012, 0.01), (1.1, 1.0), ([1.0, 2.2],
+                [1.0, 2.0]), (True, True), ("Peg", "peg")]
+    cases = "; ".join(f"`{json.dumps(p)}` for `{json.dumps(t)}`: {close(p, t):.2f}"
+                      for p, t in examples)
+    return "\n".join([
+        f"Task-model names per family (the truths of sampled `{split}` instances; "
+        "`simhost.track2.task_truth`): a model of another family scores 0.",
+        "",
+        *rows,
+        "",
+        "Values (constraints, success criteria) are compared by "
+        "`plugins.track2._scoring.close`, credit in [0, 1]; for example " + cases + ".",
+    ])
+
+
+#: Track → its vocabulary section (the words its scores and results use).
+VOCABULARY: dict[str, Callable[[TrackPlugin], str]] = {
+    "track1": track1_vocabulary, "track2": track2_vocabulary}
+
+
 def track_section(name: str) -> str:
     plugin = load_track(name)
     observations: dict[str, str] = {}
@@ -363,6 +433,7 @@ def track_section(name: str) -> str:
         "",
         fields_table([r.model or schemas.LogRecord for r in plugin.files.values()]),
         "",
+        *([VOCABULARY[name](plugin), ""] if name in VOCABULARY else []),
     ])
 
 

@@ -118,3 +118,16 @@ def test_a_real_episode_records_what_it_showed(split: str) -> None:
     shown = shown_from(raw[SHOWN])
     assert shown is not None and shown.rooms, "the room the robot starts in is shown"
     assert all(step <= 3 for step in shown.rooms.values())
+
+
+def test_the_protocol_page_names_the_vocabulary_the_scores_use() -> None:
+    """Generated from where the words live (issue 22, item 6, in part)."""
+    from plugins.protocol_doc import DOC
+    from simhost.track1._actions import REASONS
+
+    text = DOC.read_text()
+    assert all(f"`{r}`" in text for r in REASONS)
+    assert "| `standard` | 1.3 m | 0.8 m | 1.5 m |" in text
+    for family in ("assembly", "insertion", "opening", "rotation", "tool_use"):
+        assert f"| `{family}` |" in text
+    assert "`drawer_opening within`" in text and "`button_travel >=`" in text

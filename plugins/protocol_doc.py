@@ -334,7 +334,20 @@ def track1_vocabulary(plugin: TrackPlugin) -> str:
         rows.append(f"| `{split}` | {c.reach:g} m | {c.furniture_reach:g} m | "
                     f"{c.door_reach:g} m | {c.max_forward:g} m | "
                     f"{math.degrees(c.max_turn):g}° |")
+    from simhost.track1 import _catalogue as cat
+
+    effects = ", ".join(f"`{a}` ({b} → {c})" for a, (b, c) in cat.AFFORDANCE_EFFECTS.items())
     return "\n".join([
+        "Categories (`simhost.track1._catalogue`): rooms "
+        + ", ".join(f"`{x}`" for x in dict.fromkeys(cat.ROOM_TYPES)) + "; objects "
+        + ", ".join(f"`{x}`" for x in cat.OBJECT_CATEGORIES) + "; tools "
+        + ", ".join(f"`{x}`" for x in cat.TOOL_CATEGORIES) + "; containers "
+        + ", ".join(f"`{x}`" for x in cat.CONTAINER_CATEGORIES) + "; furniture "
+        + ", ".join(f"`{x}`" for x in cat.FURNITURE_CATEGORIES) + ". The graded inventory "
+        "(`objects` of `world_model.json`) counts objects and tools, not furniture or "
+        "containers (those go in `containers`). Affordances (`affordances`, the queries' "
+        f"`tools_for`), with the state each takes a target from and to: {effects}.",
+        "",
         "Failure reasons an action result may carry (`ok` false; "
         "`simhost.track1.REASONS`): " + ", ".join(f"`{r}`" for r in REASONS) + ".",
         "",
@@ -372,6 +385,7 @@ def track2_vocabulary(plugin: TrackPlugin) -> str:
     cases = "; ".join(f"`{json.dumps(p)}` for `{json.dumps(t)}`: {close(p, t):.2f}"
                       for p, t in examples)
     return "\n".join([
+        *packet_keys(plugin, split),
         f"Task-model names per family (the truths of sampled `{split}` instances; "
         "`simhost.track2.task_truth`): a model of another family scores 0.",
         "",
@@ -380,6 +394,39 @@ def track2_vocabulary(plugin: TrackPlugin) -> str:
         "Values (constraints, success criteria) are compared by "
         "`plugins.track2._scoring.close`, credit in [0, 1]; for example " + cases + ".",
     ])
+
+
+def packet_keys(plugin: TrackPlugin, split: str) -> list[str]:
+    """The arrays of the demonstration packet's ``trajectory.npz`` (written for sampled
+    instances of every family; T is the number of actions)."""
+    import tempfile
+
+    from plugins.track2._scenario import Track2Scenario
+
+    shapes: dict[str, dict[str, str]] = {}
+    for i in range(SAMPLES):
+        scenario = plugin.make_scenario(seed=i, split=split, params={"demo_frames": False},
+                                        index=i)
+        family = Track2Scenario.model_validate(scenario.params).family
+        with tempfile.TemporaryDirectory(prefix="eagc-doc-") as tmp:
+            plugin.write_inputs(scenario, Path(tmp))
+            with np.load(next(Path(tmp).rglob("trajectory.npz"))) as z:
+                steps = len(z["actions"]) if "actions" in z.files else -1
+                for key in z.files:
+                    a = z[key]
+                    lead = {steps: "T", steps + 1: "T+1"}.get(a.shape[0], str(a.shape[0])) \
+                        if a.shape else ""
+                    dims = " × ".join([lead, *map(str, a.shape[1:])]) if a.shape else "scalar"
+                    shapes.setdefault(key, {})[family] = f"{a.dtype} {dims}"
+    rows = ["| array | dtype and shape |", "|---|---|"]
+    for key, by in shapes.items():
+        kinds = set(by.values())
+        cell = next(iter(kinds)) if len(kinds) == 1 else "; ".join(
+            f"{f}: {v}" for f, v in sorted(by.items()))
+        rows.append(f"| `{key}` | {cell} |")
+    return ["The demonstration packet's `trajectory.npz` (`$EAGC_INPUT/demo`, beside "
+            "`manifest.json`, [`DemoManifest`](json/demo_manifest.json)); T is the number "
+            "of actions:", "", *rows, ""]
 
 
 #: Track → its vocabulary section (the words its scores and results use).

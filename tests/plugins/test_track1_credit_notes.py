@@ -131,3 +131,4 @@ def test_the_protocol_page_names_the_vocabulary_the_scores_use() -> None:
     for family in ("assembly", "insertion", "opening", "rotation", "tool_use"):
         assert f"| `{family}` |" in text
     assert "`drawer_opening within`" in text and "`button_travel >=`" in text
+    assert "| `obs_force` | float32 T+1 × 6 |" in text and "`wipe` (dirty → clean)" in text

@@ -11,6 +11,7 @@ from plugins._base import (
     ScoringInput,
     TrackPlugin,
     granted_budgets,
+    score_episode,
 )
 from plugins._errors import PluginError
 from plugins._registry import GROUP, available_tracks, load_track, validate_plugin
@@ -30,6 +31,7 @@ __all__ = [
     "TrackPlugin",
     "available_tracks",
     "granted_budgets",
+    "score_episode",
     "load_track",
     "validate_plugin",
 ]

@@ -50,7 +50,7 @@ from orchestrator._runtimes.interface import (
     AgentStartError,
 )
 from orchestrator._runtimes.reaper import Heartbeat, reap_here
-from plugins import Scenario, ScoringInput, TrackPlugin, granted_budgets, load_track
+from plugins import Scenario, TrackPlugin, load_track, score_episode
 from schemas import (
     CONTAINER,
     ContainerExit,
@@ -61,7 +61,6 @@ from schemas import (
     FailureReport,
     FileCheck,
     Limits,
-    ScoreCard,
     unix_endpoint,
 )
 from simhost._host import HostConfig, HostOutcome, SimHost
@@ -146,16 +145,6 @@ def new_episode_id() -> str:
     return "ep" + secrets.token_hex(8)
 
 
-def _zero_card(plugin: TrackPlugin, note: str) -> ScoreCard:
-    return ScoreCard(
-        track=plugin.name,
-        total=0.0,
-        components={k: 0.0 for k in plugin.weights},
-        weights=dict(plugin.weights),
-        notes=(note,),
-    )
-
-
 class _Snapshots:
     """Copies /output's files at every stage end (and at exit) into the host folder."""
 
@@ -225,37 +214,129 @@ def _latency(outcome: HostOutcome) -> tuple[float | None, float | None]:
     return float(np.median(arr)), float(np.percentile(arr, 99))
 
 
+@dataclass(frozen=True)
+class _Folders:
+    """An episode's folders (``<runs>/<episode>/``: see the module docstring)."""
+
+    root: Path
+    sock: Path
+    output: Path
+    host: Path
+    socket: Path
+
+
+@dataclass
+class _Served:
+    """What serving an episode left: its scenario, the host's outcome, the agent's exit,
+    the track's organizer-side outcome, and what went wrong outside the agent's doing."""
+
+    scenario: Scenario | None = None
+    outcome: HostOutcome = field(default_factory=HostOutcome)
+    exit_: ContainerExit = field(default_factory=ContainerExit)
+    episode_outcome: dict[str, Any] = field(default_factory=dict)
+    infra: str | None = None
+    no_start: str | None = None
+
+
 def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
-    """Runs one episode to the end and returns its result; never raises for agent faults."""
+    """Runs one episode to the end and returns its result; never raises for agent faults.
+
+    prepare (folders, heartbeat, /output) → serve (scenario, host, agent) → collect
+    (/output, snapshots, file checks) → score (``plugins.score_episode``) → keep (result,
+    MCAP, log, the agent's files)."""
     started = time.time()
     plugin = load_track(spec.track)
     episode_id = spec.episode or new_episode_id()
+    folders = _prepare(spec, episode_id)
+    # Docker agents: the heartbeat names them for the reapers, which run from here too.
+    heartbeat = Heartbeat(folders.root / "heartbeat",
+                          reap=(lambda: reap_here()) if runtime.name == "docker" else None)
+    mounted = mount_output(folders.output, spec.limits.output_mb, CONTAINER.uid)
+    recorder = McapRecorder(folders.host / "episode.mcap")
+    snapshots = _Snapshots(folders.output, folders.host, spec.limits, recorder)
+    served = _serve(spec, runtime, plugin, episode_id, folders, recorder, snapshots, heartbeat)
+
+    # ------------------------------------------------------------ files and score
+    final = collect(folders.output, max_file_bytes=spec.limits.output_file_mb << 20,
+                    max_total_bytes=spec.limits.output_mb << 20)
+    snapshots.by_stage["final"] = final.files
+    parsed, checks = plugin.verify_files(final.files)
+    checks = checks + final.refused
+    snap_parsed = {stage: plugin.parse_snapshot(files)
+                   for stage, files in snapshots.by_stage.items() if stage != "final"}
+    outcome, exit_ = served.outcome, served.exit_
+    if served.infra is not None:
+        status, limit = EpisodeStatus.INFRA_ERROR, None
+        message = served.infra.strip().splitlines()[-1]
+    elif served.no_start is not None:
+        status, limit, message = EpisodeStatus.AGENT_NO_START, None, served.no_start
+    else:
+        status, limit, message = _classify(outcome, exit_, spec.limits, checks)
+    score = score_episode(
+        plugin, served.scenario, status=status, end_reason=outcome.end_reason,
+        stages_reached=outcome.stages_reached, outcome=served.episode_outcome, files=parsed,
+        snapshots=snap_parsed, steps=outcome.steps, invalid_actions=outcome.invalid_actions,
+        protocol_errors=sum(n for code, n in outcome.protocol_errors.items()
+                            if code != "invalid_action"),
+        time_scale=spec.limits.time_scale)
+
+    median, p99 = _latency(outcome)
+    stats = EpisodeStats(
+        steps=outcome.steps,
+        invalid_actions=outcome.invalid_actions,
+        protocol_errors=dict(outcome.protocol_errors),
+        latency_ms_median=median,
+        latency_ms_p99=p99,
+        peak_memory_bytes=exit_.peak_memory_bytes,
+        wall_s=time.time() - started,
+        stage_durations_s=outcome.stage_durations_s,
+        sim_warnings=int(served.episode_outcome.get("sim_warnings", 0) or 0),
+    )
+    failure = None
+    if status.failure_kind is not None:
+        failure = FailureReport(
+            kind=status.failure_kind, status=status, stage_reached=outcome.last_stage,
+            limit_hit=limit, exit_code=exit_.exit_code, oom_killed=exit_.oom_killed,
+            message=message, log_tail=exit_.log_tail[-2000:],
+        )
+    result = EpisodeResult(
+        episode=episode_id, track=spec.track, split=spec.split, image=spec.image,
+        runtime=runtime.name, status=status, score=score, stats=stats, files=tuple(checks),
+        stages_reached=tuple(outcome.stages_reached), failure=failure, container=exit_,
+        episode_dir=str(folders.root), mcap=str(folders.host / "episode.mcap"),
+        started_at=started, finished_at=time.time(),
+    )
+    recorder.write_json("/eagc/score", recorder.now(), result.model_dump(mode="json"))
+    recorder.close()
+    _keep(folders, result, exit_, served.infra, final.files, mounted)
+    return result
+
+
+def _prepare(spec: EpisodeSpec, episode_id: str) -> _Folders:
+    """The episode's folders, made (private: the MCAP holds the hidden scenario)."""
     root = spec.runs_dir.resolve() / episode_id
-    sock_dir, output, host_dir = root / "sock", root / "output", root / "host"
-    socket_path = sock_dir / CONTAINER.socket_name
+    sock, output, host = root / "sock", root / "output", root / "host"
+    socket_path = sock / CONTAINER.socket_name
     if len(str(socket_path)) > CONTAINER.max_socket_path:
         raise ValueError(
             f"socket path {socket_path} is longer than {CONTAINER.max_socket_path} bytes "
             "(a unix socket limit): choose a shorter runs folder"
         )
-    for d in (sock_dir, host_dir):
+    for d in (sock, host):
         d.mkdir(parents=True, exist_ok=True)
     root.chmod(0o700)
-    sock_dir.chmod(0o755)
-    # Docker agents: the heartbeat names them for the reapers, which run from here too.
-    heartbeat = Heartbeat(root / "heartbeat",
-                          reap=(lambda: reap_here()) if runtime.name == "docker" else None)
-    mounted = mount_output(output, spec.limits.output_mb, CONTAINER.uid)
+    sock.chmod(0o755)
+    return _Folders(root, sock, output, host, socket_path)
 
-    recorder = McapRecorder(host_dir / "episode.mcap")
-    snapshots = _Snapshots(output, host_dir, spec.limits, recorder)
+
+def _serve(spec: EpisodeSpec, runtime: AgentRuntime, plugin: TrackPlugin, episode_id: str,
+           folders: _Folders, recorder: McapRecorder, snapshots: _Snapshots,
+           heartbeat: Heartbeat) -> _Served:
+    """Builds the scenario, opens the sim host, starts the agent and serves the episode
+    to its end; whatever happens, the agent is stopped and the host closed."""
+    served = _Served()
     host: SimHost | None = None
     handle: AgentHandle | None = None
-    exit_ = ContainerExit()
-    outcome = HostOutcome()
-    scenario: Scenario | None = None
-    infra: str | None = None
-    no_start: str | None = None
     input_dir: Path | None = None
     abandoned = False  # serve() hung and still runs: its episode is left open
     cores = ExitStack()  # the episode's cores, held until its host and agent are gone
@@ -263,13 +344,14 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
         extra = {} if spec.index is None else {"index": spec.index}
         scenario = plugin.make_scenario(seed=spec.seed, split=spec.split, params=spec.params,
                                         **extra)
+        served.scenario = scenario
         placement = cores.enter_context(placed(spec.limits.cpus, enabled=spec.limits.pin_cpus))
         recorder.write_json("/eagc/scenario", 0.0, {
             "episode": episode_id, "track": spec.track, "split": spec.split, "seed": spec.seed,
             "image": spec.image, "params": scenario.params, "limits": spec.limits.model_dump(),
             "cpus": None if placement is None else placement.as_dict(),
         })
-        staged = root / "input"
+        staged = folders.root / "input"
         staged.mkdir()
         plugin.write_inputs(scenario, staged)
         if any(staged.iterdir()):
@@ -281,8 +363,8 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
             HostConfig(
                 episode=episode_id,
                 track=spec.track,
-                endpoints=(unix_endpoint(str(socket_path)),),
-                socket_path=socket_path,
+                endpoints=(unix_endpoint(str(folders.socket)),),
+                socket_path=folders.socket,
                 time_scale=spec.limits.time_scale,
                 max_steps_per_stage=spec.limits.max_steps_per_stage,
                 startup_s=spec.limits.startup_s,
@@ -296,15 +378,15 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
         budgets = sum(s.budget_s for s in plugin.stages()) * spec.limits.time_scale
         watchdog_s = spec.limits.startup_s + budgets + spec.watchdog_grace_s
         launch = AgentLaunch(
-            image=spec.image, episode=episode_id, socket_dir=sock_dir, output_dir=output,
-            input_dir=input_dir, limits=spec.limits, labels=spec.labels,
-            cpuset=None if placement is None else placement.cpuset,
+            image=spec.image, episode=episode_id, socket_dir=folders.sock,
+            output_dir=folders.output, input_dir=input_dir, limits=spec.limits,
+            labels=spec.labels, cpuset=None if placement is None else placement.cpuset,
             heartbeat=heartbeat.path, deadline_s=watchdog_s + spec.exit_grace_s + 30.0,
         )
         try:
             handle = runtime.start(launch)
         except AgentStartError as e:
-            no_start = str(e)
+            served.no_start = str(e)
         if handle is not None:
             stop = threading.Event()
             exited = threading.Event()
@@ -316,9 +398,10 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
 
             threading.Thread(target=watch, daemon=True, name=f"watch-{episode_id}").start()
             outcome, hung, abandoned = serve_watched(host, stop, watchdog_s,
-                                                     host_dir / "watchdog.txt")
+                                                     folders.host / "watchdog.txt")
+            served.outcome = outcome
             if hung is not None:
-                infra = hung
+                served.infra = hung
             handle.checkpoint()  # while the agent most likely still runs
             if outcome.end_reason != EndReason.STOPPED and not exited.is_set():
                 # Let the agent write its last files and leave on its own.
@@ -326,17 +409,20 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
             exit_ = handle.stop()
             if outcome.end_reason == EndReason.STOPPED and exit_.exit_code is not None:
                 exit_ = exit_.model_copy(update={"exited_early": True})
-            if outcome.internal_error and infra is None:
-                infra = outcome.internal_error
+            served.exit_ = exit_
+            if outcome.internal_error and served.infra is None:
+                served.infra = outcome.internal_error
     except Exception as e:  # noqa: BLE001 - the result must be recorded whatever happened
-        infra = "".join(traceback.format_exception(e))
-        log.error("episode %s: infrastructure failure\n%s", episode_id, infra)
+        served.infra = "".join(traceback.format_exception(e))
+        log.error("episode %s: infrastructure failure\n%s", episode_id, served.infra)
     finally:
         if handle is not None:
             try:
-                exit_ = handle.stop()
+                stopped = handle.stop()  # the same exit, unless serving never stopped it
+                if not served.exit_.exited_early:
+                    served.exit_ = stopped
             except Exception as e:  # noqa: BLE001
-                infra = infra or f"could not stop the agent: {e}"
+                served.infra = served.infra or f"could not stop the agent: {e}"
         heartbeat.stop()
         if host is not None:
             host.close()
@@ -346,90 +432,29 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
             except Exception:  # noqa: BLE001
                 pass
         cores.close()
-
-    # ------------------------------------------------------------ files and score
-    final = collect(output, max_file_bytes=spec.limits.output_file_mb << 20,
-                    max_total_bytes=spec.limits.output_mb << 20)
-    snapshots.by_stage["final"] = final.files
-    parsed, checks = plugin.verify_files(final.files)
-    checks = checks + final.refused
-    snap_parsed = {stage: plugin.parse_snapshot(files)
-                   for stage, files in snapshots.by_stage.items() if stage != "final"}
-
-    if infra is not None:
-        status, limit, message = EpisodeStatus.INFRA_ERROR, None, infra.strip().splitlines()[-1]
-    elif no_start is not None:
-        status, limit, message = EpisodeStatus.AGENT_NO_START, None, no_start
-    else:
-        status, limit, message = _classify(outcome, exit_, spec.limits, checks)
-
-    episode_outcome: dict[str, Any] = {}
     if host is not None:
         try:
-            episode_outcome = host.episode.outcome()
+            served.episode_outcome = host.episode.outcome()
         except Exception as e:  # noqa: BLE001
             log.error("episode %s: outcome() failed: %s", episode_id, e)
-    if status in (EpisodeStatus.AGENT_NO_START, EpisodeStatus.INFRA_ERROR) or scenario is None:
-        score = _zero_card(plugin, f"not scored: {status.value}")
-    else:
-        score = plugin.score(ScoringInput(
-            scenario=scenario, status=status, end_reason=outcome.end_reason,
-            stages_reached=tuple(outcome.stages_reached), outcome=episode_outcome,
-            files=parsed, snapshots=snap_parsed, steps=outcome.steps,
-            invalid_actions=outcome.invalid_actions,
-            protocol_errors=sum(
-                n for code, n in outcome.protocol_errors.items() if code != "invalid_action"
-            ),
-            stage_budgets_s=granted_budgets(plugin.stages(), spec.limits.time_scale),
-        ))
-        if status.failure_kind == "agent":
-            score = score.model_copy(update={"notes": (*score.notes, f"agent failure: {status}")})
-        elif outcome.end_reason == EndReason.STEPS:
-            used = (f"the last stage {outcome.last_stage or '?'!r} used its step budget: the "
-                    "task is scored as far as it got")
-            score = score.model_copy(update={"notes": (*score.notes, used)})
+    return served
 
-    median, p99 = _latency(outcome)
-    stats = EpisodeStats(
-        steps=outcome.steps,
-        invalid_actions=outcome.invalid_actions,
-        protocol_errors=dict(outcome.protocol_errors),
-        latency_ms_median=median,
-        latency_ms_p99=p99,
-        peak_memory_bytes=exit_.peak_memory_bytes,
-        wall_s=time.time() - started,
-        stage_durations_s=outcome.stage_durations_s,
-        sim_warnings=int(episode_outcome.get("sim_warnings", 0) or 0),
-    )
-    failure = None
-    if status.failure_kind is not None:
-        failure = FailureReport(
-            kind=status.failure_kind, status=status, stage_reached=outcome.last_stage,
-            limit_hit=limit, exit_code=exit_.exit_code, oom_killed=exit_.oom_killed,
-            message=message, log_tail=exit_.log_tail[-2000:],
-        )
-    result = EpisodeResult(
-        episode=episode_id, track=spec.track, split=spec.split, image=spec.image,
-        runtime=runtime.name, status=status, score=score, stats=stats, files=tuple(checks),
-        stages_reached=tuple(outcome.stages_reached), failure=failure, container=exit_,
-        episode_dir=str(root), mcap=str(host_dir / "episode.mcap"),
-        started_at=started, finished_at=time.time(),
-    )
-    recorder.write_json("/eagc/score", recorder.now(), result.model_dump(mode="json"))
-    recorder.close()
-    (host_dir / "result.json").write_text(result.model_dump_json(indent=2))
-    (host_dir / "agent.log").write_text(exit_.log_tail)
+
+def _keep(folders: _Folders, result: EpisodeResult, exit_: ContainerExit, infra: str | None,
+          files: dict[str, bytes], mounted: bool) -> None:
+    """Writes the result and the agent's log and files into ``host/``; releases /output."""
+    (folders.host / "result.json").write_text(result.model_dump_json(indent=2))
+    (folders.host / "agent.log").write_text(exit_.log_tail)
     if infra is not None:
-        (host_dir / "infra_error.txt").write_text(infra)
+        (folders.host / "infra_error.txt").write_text(infra)
     # Keep a copy of what the agent left (regular files only), then release the tmpfs.
-    keep = host_dir / "output"
+    keep = folders.host / "output"
     keep.mkdir(exist_ok=True)
-    for name, blob in final.files.items():
+    for name, blob in files.items():
         (keep / name).write_bytes(blob)
     if mounted:
-        unmount_output(output)
-    shutil.rmtree(sock_dir, ignore_errors=True)
-    return result
+        unmount_output(folders.output)
+    shutil.rmtree(folders.sock, ignore_errors=True)
 
 
 def result_json(result: EpisodeResult) -> str:

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from orchestrator._episode.collect import collect
-from plugins import ScoringInput, granted_budgets, load_track
+from plugins import load_track, score_episode
 from plugins.track1 import Track1Episode
 from schemas import (
     ActionResult,
@@ -248,11 +248,10 @@ def run_agent(make_agent: Callable[[Track1Episode], Any], split: str, seed: int,
         else:
             status = EpisodeStatus.COMPLETED
         outcome = episode.outcome()
-        card = plugin.score(ScoringInput(
-            scenario=scenario, status=status, end_reason=env.end_reason,
-            stages_reached=tuple(env.stages_reached), outcome=outcome, files=parsed,
-            snapshots=snaps, steps=env.steps, invalid_actions=env.invalid, protocol_errors=0,
-            stage_budgets_s=granted_budgets(plugin.stages())))
+        card = score_episode(
+            plugin, scenario, status=status, end_reason=env.end_reason,
+            stages_reached=env.stages_reached, outcome=outcome, files=parsed,
+            snapshots=snaps, steps=env.steps, invalid_actions=env.invalid, protocol_errors=0)
     episode.close()
     exc = outcome.get("exception") or {}
     return Played(split=split, seed=seed, card=card, status=status, end_reason=env.end_reason,

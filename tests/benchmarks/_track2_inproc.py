@@ -130,7 +130,7 @@ def run_inproc(folder: str, *, seed: int, split: str, index: int,
                params: dict[str, Any] | None = None) -> dict[str, Any]:
     """One episode of ``examples/<folder>`` in this process; the ``EpisodeResult`` as JSON."""
     import simhost.agent as agent_mod
-    from plugins import ScoringInput, granted_budgets, load_track
+    from plugins import load_track, score_episode
     from schemas import EpisodeResult, EpisodeStats, EpisodeStatus, TaskModel
 
     started = time.time()
@@ -182,12 +182,11 @@ def run_inproc(folder: str, *, seed: int, split: str, index: int,
             except Exception:  # noqa: BLE001 - an invalid file scores as missing
                 pass
     steps = env.steps if env else 0
-    card = plugin.score(ScoringInput(
-        scenario=scenario, status=EpisodeStatus.COMPLETED, end_reason="completed",
+    card = score_episode(
+        plugin, scenario, status=EpisodeStatus.COMPLETED, end_reason="completed",
         stages_reached=tuple(env.stages[: env.stage + 1]) if env else (),
         outcome=outcome, files=files, snapshots={}, steps=steps,
-        invalid_actions=env.invalid if env else 0, protocol_errors=0,
-        stage_budgets_s=granted_budgets(plugin.stages())))
+        invalid_actions=env.invalid if env else 0, protocol_errors=0)
     result = EpisodeResult(
         episode=f"{folder}-{split}-{seed}", track="track2", split=split, image=folder,
         runtime="in-process", status=EpisodeStatus.COMPLETED, score=card,

@@ -97,7 +97,7 @@ def _in_process(agent: str, split: str, seed: int, index: int) -> Any:
     """The oracle or the do-nothing agent, driving the episode as the host would."""
     import numpy as np
 
-    from plugins import ScoringInput, granted_budgets, load_track
+    from plugins import load_track, score_episode
     from plugins.track2 import Track2Scenario
     from plugins.track2._episode import DEMONSTRATION, EXECUTION, PARSING
     from schemas import EpisodeResult, EpisodeStats, EpisodeStatus, TaskModel
@@ -144,11 +144,10 @@ def _in_process(agent: str, split: str, seed: int, index: int) -> Any:
         outcome = ep.outcome()
     finally:
         ep.close()
-    card = plugin.score(ScoringInput(
-        scenario=scenario, status=EpisodeStatus.COMPLETED, end_reason="completed",
+    card = score_episode(
+        plugin, scenario, status=EpisodeStatus.COMPLETED, end_reason="completed",
         stages_reached=(DEMONSTRATION, PARSING, EXECUTION), outcome=outcome, files=files,
-        snapshots={}, steps=steps, invalid_actions=0, protocol_errors=0,
-        stage_budgets_s=granted_budgets(plugin.stages())))
+        snapshots={}, steps=steps, invalid_actions=0, protocol_errors=0)
     return EpisodeResult(
         episode=f"{agent}-{split}-{seed}", track="track2", split=split, image=agent,
         runtime="in-process", status=EpisodeStatus.COMPLETED, score=card,

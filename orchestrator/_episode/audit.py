@@ -27,39 +27,23 @@ from __future__ import annotations
 
 import importlib
 import json
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Literal
+from typing import Any
 
 from mcap.reader import make_reader
 from pydantic import BaseModel, ConfigDict, computed_field
 
 from orchestrator._episode.replay import ReplayError, replay
 from plugins import load_track
+from plugins._audit import STEP_SLACK, Finding, HostSteps, Severity, log_step_findings
 from schemas import LogRecord, SchemaError, parse_episode_log
-
-Severity = Literal["flag", "warning", "note"]
 
 _TOPICS = ["/eagc/scenario", "/eagc/request", "/eagc/reply", "/eagc/observation",
            "/eagc/event"]
-#: A record may name the step it is about to make, or the one it just made.
-STEP_SLACK = 1
-
-
-class Finding(BaseModel):
-    """One finding: which check, how serious (``flag``: a sign of something wrong;
-    ``warning``: worth a look; ``note``: for the record), where, and why."""
-
-    model_config = ConfigDict(frozen=True)
-
-    check: str
-    severity: Severity
-    message: str
-    step: int | None = None
-    subjects: tuple[str, ...] = ()
-    """What it is about (ids, rooms, an exception type), when it is about something."""
+__all__ = ["STEP_SLACK", "EpisodeAudit", "Finding", "HostSteps", "ReplayCheck", "Severity",
+           "audit_episode", "log_step_findings"]
 
 
 class ReplayCheck(BaseModel):
@@ -96,41 +80,6 @@ class EpisodeAudit(BaseModel):
 
 class EpisodeAuditError(ReplayError):
     """Raised when an episode folder has no readable log to audit."""
-
-
-@dataclass(frozen=True)
-class HostSteps:
-    """The host's step count: in total, and where each stage began and ended."""
-
-    total: int
-    stages: Mapping[str, tuple[int, int]] = field(default_factory=dict)
-    """Stage → (steps served when it started, steps served when it ended)."""
-
-    def at_end(self, stage: str) -> int:
-        return self.stages.get(stage, (self.total, self.total))[1]
-
-
-def log_step_findings(records: Sequence[LogRecord], host: HostSteps,
-                      *, where: str = "episode_log.jsonl") -> list[Finding]:
-    """Each record's ``step`` against the host's count (module doc); pure."""
-    out: list[Finding] = []
-    past = [r for r in records if r.step > host.total + STEP_SLACK]
-    if past:
-        r = past[0]
-        out.append(Finding(check="log_steps", severity="flag", step=r.step, message=(
-            f"{where}: {len(past)} record(s) name a step past the {host.total} the host "
-            f"served (first: step {r.step}, {r.event})")))
-    outside = [r for r in records if r.stage in host.stages and r not in past
-               and not (host.stages[r.stage][0] - STEP_SLACK <= r.step
-                        <= host.stages[r.stage][1] + STEP_SLACK)]
-    if outside:
-        r = outside[0]
-        lo, hi = host.stages[r.stage]  # type: ignore[index]
-        out.append(Finding(check="log_steps", severity="warning", step=r.step, message=(
-            f"{where}: {len(outside)} record(s) name a step outside their stage (first: "
-            f"step {r.step}, {r.event} in {r.stage!r}, which ran over host steps "
-            f"{lo}-{hi})")))
-    return out
 
 
 def track_checks(track: str) -> ModuleType | None:

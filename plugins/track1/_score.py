@@ -45,12 +45,12 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
+from plugins._audit import HostSteps, log_step_findings
 from plugins._base import ScoringInput
 from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, SHOWN, shown_from
 from plugins.track1._queries import f1
 from plugins.track1._types import ExceptionRecord, GradedQuery, Track1Outcome
 from plugins.track1.audit import (
-    STEP_SLACK,
     Shown,
     Timeline,
     _as_id,
@@ -294,29 +294,16 @@ def unseen_notes(model: WorldModel | None, shown: Shown | None, step: int) -> li
 
 
 def log_step_notes(o: Track1Outcome, log: Sequence[LogRecord]) -> list[str]:
-    """Records whose ``step`` disagrees with the host's count (``STEP_SLACK`` either
-    side): the score reads detection steps as the host's."""
+    """Records whose ``step`` disagrees with the host's count (``plugins._audit``: the same
+    check as the audit's): the score reads detection steps as the host's."""
     spans: dict[str, tuple[int, int]] = {}
     at = 0
     for stage in (EXPLORATION, PLANNING, EXECUTION):
         if stage in o.stage_steps:
             spans[stage] = (at, at + o.stage_steps[stage])
             at += o.stage_steps[stage]
-    past = [r for r in log if r.step > o.steps + STEP_SLACK]
-    out = [r for r in log if r not in past and r.stage in spans
-           and not spans[r.stage][0] - STEP_SLACK <= r.step <= spans[r.stage][1] + STEP_SLACK]
-    notes = []
-    if past:
-        notes.append(f"episode_log.jsonl: {len(past)} record(s) name a step past the "
-                     f"{o.steps} the host served (first: step {past[0].step}); steps are "
-                     "the host's count of step requests")
-    if out:
-        r = out[0]
-        lo, hi = spans[str(r.stage)]
-        notes.append(f"episode_log.jsonl: {len(out)} record(s) name a step outside their "
-                     f"stage (first: step {r.step} in {r.stage}, host steps {lo}-{hi}); "
-                     "steps are the host's count of step requests")
-    return notes
+    return [f"{f.message}; steps are the host's count of step requests"
+            for f in log_step_findings(log, HostSteps(o.steps, spans))]
 
 
 def query_notes(o: Track1Outcome) -> list[str]:

@@ -39,6 +39,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from plugins._audit import STEP_SLACK
 from schemas import LogRecord, WorldModel
 
 Severity = Literal["flag", "warning", "note"]
@@ -55,9 +56,6 @@ HIDDEN_STATES = {"locked": "locked", "unavailable": "unavailable"}
 #: Message fields that carry an instance id, and those that carry room ids.
 ID_KEYS = frozenset({"object", "door", "container", "tool", "target", "item", "receptacle"})
 ROOM_KEYS = frozenset({"room", "rooms"})
-#: A record's ``step`` is the agent's count: it may name the step it is about to make or
-#: the one it just made (the baselines write the former while reading a step's reply).
-STEP_SLACK = 1
 
 
 @dataclass(frozen=True)

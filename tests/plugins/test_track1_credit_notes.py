@@ -97,7 +97,8 @@ def test_log_steps_past_the_host_count_and_unanswered_queries_are_noted() -> Non
            LogRecord(step=900, stage="execution", event="note")]
     notes = _card(o, model=perfect_model(), log=log).notes
     assert any("1 record(s) name a step past the 100 the host served" in n for n in notes)
-    assert any("step 5 in execution, host steps 50-100" in n for n in notes)
+    assert any("step 5, stage in 'execution', which ran over host steps 50-100" in n
+               for n in notes)
     assert any("5 of 6 queries left unanswered" in n for n in notes)
 
 

@@ -6,6 +6,7 @@ codes of ``orchestrator.cli.common`` (shown by ``eagc --help`` and in the README
 
 from __future__ import annotations
 
+import difflib
 import logging
 import os
 from pathlib import Path
@@ -74,6 +75,25 @@ def local_command(image: str) -> str:
     if folder is None:
         return image  # already a command line
     return f"python {folder / 'agent.py'}"
+
+
+def check_image(image: str, client: Any) -> None:
+    """UsageError, with a "Did you mean" among the engine's eagc/* images, when the
+    Docker engine has no image ``image`` (the sandbox never pulls)."""
+    import docker
+
+    try:
+        client.images.get(image)
+        return
+    except docker.errors.ImageNotFound:
+        pass
+    except docker.errors.APIError:
+        return  # the episode says what the engine answered
+    tags = [t for i in client.images.list() for t in i.tags if t.startswith("eagc/")]
+    names = tags + [t.removesuffix(":latest") for t in tags if t.endswith(":latest")]
+    hint = difflib.get_close_matches(image, names, n=1, cutoff=0.5)
+    raise UsageError(f"no image {image!r} here."
+                     + (f" Did you mean {hint[0]!r}?" if hint else " See `docker images`."))
 
 
 def _runtime(name: str):  # noqa: ANN202
@@ -181,7 +201,7 @@ def test_agent(
     """Check your container against the contract: one real episode in the sandbox."""
     from rich.table import Table
 
-    from orchestrator._episode.agentcheck import contract_checks
+    from orchestrator._episode.agentcheck import contract_checks, verdict
     from orchestrator._episode.worker import EpisodeSpec, run_episode
     from orchestrator._results.score_card import print_result, where_line
 
@@ -189,9 +209,13 @@ def test_agent(
     check_split(plugin, split)
     if runtime == "local":
         image = local_command(image)
+    elif runtime == "docker" and len(image.split()) > 1:
+        raise UsageError(f"{image!r} is a command, not an image: use --runtime local")
     spec = EpisodeSpec(track=track, image=image, seed=seed, split=split, runs_dir=runs_dir,
                        limits=limits_of(time_scale=time_scale, memory_mb=memory_mb))
     agent_runtime = _runtime(runtime)
+    if runtime == "docker":
+        check_image(image, agent_runtime.client)
     with notes.status(f"one {track} episode with {image} ({runtime})…"):
         result = run_episode(spec, agent_runtime)
     print_result(result, console, team=True)
@@ -201,12 +225,15 @@ def test_agent(
     table.add_column("detail")
     checks = contract_checks(result)
     for c in checks:
-        table.add_row(c.name, "[green]pass[/]" if c.ok else "[bold red]FAIL[/]", c.detail)
+        mark = "[dim]—[/]" if c.ok is None else "[green]pass[/]" if c.ok else "[bold red]FAIL[/]"
+        table.add_row(c.name, mark, c.detail)
     console.print(table)
+    console.print(verdict(result, checks), highlight=False)
     console.print(where_line(result), highlight=False)
     if result.status.failure_kind == "infra":
         raise typer.Exit(ExitCode.INFRA)
-    raise typer.Exit(ExitCode.OK if all(c.ok for c in checks) else ExitCode.AGENT)
+    raise typer.Exit(ExitCode.OK if all(c.ok is not False for c in checks)
+                     else ExitCode.AGENT)
 
 
 @app.command()

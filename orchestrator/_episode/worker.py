@@ -185,6 +185,9 @@ def _classify(
         return (EpisodeStatus.AGENT_PROTOCOL, f"{limits.max_protocol_errors} protocol errors",
                 "too many malformed or invalid requests")
     if reason in (EndReason.STOPPED, EndReason.AGENT_LOST):
+        if exit_.exit_code == 0:  # no crash: it ended cleanly, too soon
+            return (EpisodeStatus.AGENT_CRASH, None,
+                    f"the agent exited with code 0 before the episode ended, during {stage!r}")
         how = "exited" if exit_.exit_code is not None else "disconnected"
         return (EpisodeStatus.AGENT_CRASH, None,
                 f"the agent {how} (exit code {exit_.exit_code}) before the episode ended, "

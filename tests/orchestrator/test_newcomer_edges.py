@@ -91,3 +91,24 @@ def test_a_command_with_the_docker_runtime_is_a_usage_error(runs: Path) -> None:
     assert len(err.strip().splitlines()) == 1 and "--runtime local" in err, err
     assert "Traceback" not in out + err and "infra" not in out + err
     assert len(err.strip()) <= 80
+
+
+def test_an_agent_that_exits_0_too_soon_is_not_said_to_have_crashed() -> None:
+    from orchestrator._episode.worker import _classify
+    from schemas import ContainerExit, EpisodeStatus, Limits
+    from simhost._host import EndReason, HostOutcome
+
+    outcome = HostOutcome(end_reason=EndReason.STOPPED, stages_reached=["explore", "reach"])
+    status, _, message = _classify(outcome, ContainerExit(exit_code=0), Limits(), [])
+    assert status is EpisodeStatus.AGENT_CRASH  # the status a script sees stays the same
+    assert message == "the agent exited with code 0 before the episode ended, during 'reach'"
+    _, _, crashed = _classify(outcome, ContainerExit(exit_code=7), Limits(), [])
+    assert "exit code 7" in crashed
+
+
+@pytest.mark.slow
+def test_a_clean_early_exit_says_so_on_the_card(runs: Path) -> None:
+    code, out, err = _run("run-episode", "sanity", "--runtime", "local", "--image",
+                          f"{sys.executable} -c pass", "--runs-dir", str(runs))
+    assert code == ExitCode.AGENT, out + err
+    assert "exited with code 0 before the episode ended" in " ".join(out.split()), out

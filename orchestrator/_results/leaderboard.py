@@ -156,7 +156,7 @@ class Leaderboard:
     def to_markdown(self) -> str:
         cols = self._with_ci()
         head = ["#", "Ranks", "Team", *(c.title for c in cols), "Episodes"]
-        lines = [f"## {self.campaign} ({self.track}, {self.phase})", "",
+        lines = [f"## {self.campaign} ({self.track}, phase {self.phase})", "",
                  "| " + " | ".join(head) + " |",
                  "|" + "|".join(["---:", "---:", "---", *(["---:"] * len(cols)), "---:"])
                  + "|"]
@@ -191,7 +191,7 @@ class Leaderboard:
         cols.append(TextColumn("Episodes", tuple(f"{r.episodes}/{r.planned}"
                                                  for r in self.rows)))
         first = next(i for i, c in enumerate(self.columns) if c.key == "final")
-        lines = layout(f"{self.campaign} · {self.track} · {self.phase} (scores 0-100)", key,
+        lines = layout(f"{self.campaign} · {self.track} · phase {self.phase} (scores 0-100)", key,
                        cols, first, limit, lead=2)
         lines += ["", *wrapped(LEGEND, limit)]
         if self.failures:

@@ -83,7 +83,7 @@ def test_quickstart_in_a_fresh_venv(engine: Any, tmp_path: Path, short_dir: Path
                        cwd=tmp_path, timeout=1200)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     assert "Traceback" not in r.stderr
-    assert "demo-sanity · sanity · local" in r.stdout and "sanity_agent" in r.stdout
+    assert "demo-sanity · sanity · phase local" in r.stdout and "sanity_agent" in r.stdout
     assert f"results of demo-sanity (SQLite, one row per episode):\n  {short_dir}/results.sqlite" \
         in r.stderr
     assert (short_dir / "demo_sanity.yaml").is_file()

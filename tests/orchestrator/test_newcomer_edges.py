@@ -112,3 +112,12 @@ def test_a_clean_early_exit_says_so_on_the_card(runs: Path) -> None:
                           f"{sys.executable} -c pass", "--runs-dir", str(runs))
     assert code == ExitCode.AGENT, out + err
     assert "exited with code 0 before the episode ended" in " ".join(out.split()), out
+
+
+def test_the_leaderboard_title_names_the_phase_as_a_phase() -> None:
+    """"local" is both a campaign phase and the no-sandbox runtime: the title says which."""
+    from orchestrator._results.leaderboard import Column, Leaderboard
+
+    board = Leaderboard("demo-sanity", "sanity", "local", [Column("final", "Final")], [])
+    assert board.to_text(80).splitlines()[0].startswith("demo-sanity · sanity · phase local")
+    assert board.to_markdown().splitlines()[0] == "## demo-sanity (sanity, phase local)"

@@ -19,12 +19,21 @@ import numpy as np
 from plugins.track2._episode import DEMO_FOLDER, EXECUTION
 from plugins.track2._scenario import Track2Scenario
 
+#: The widest title the picture holds (8 pixels a character, 12 of margin each side).
+TITLE_CHARS = 82
 
-def _read_log(mcap: Path) -> tuple[dict[str, Any], dict[int, list[list[float]]], int | None]:
-    """The scenario, the hand's path per attempt and the attempt that succeeded."""
+
+def _read_log(
+    mcap: Path,
+) -> tuple[dict[str, Any], dict[int, list[list[float]]], int | None, float | None]:
+    """The scenario, the hand's path per attempt, the attempt that succeeded and the
+    episode's score (0-1, from its EpisodeResult; None before it was scored)."""
     from mcap.reader import make_reader
 
+    from schemas import EpisodeResult
+
     scenario: dict[str, Any] = {}
+    total: float | None = None
     won: int | None = None
     paths: dict[int, list[list[float]]] = {}
     current: int | None = None
@@ -33,6 +42,8 @@ def _read_log(mcap: Path) -> tuple[dict[str, Any], dict[int, list[list[float]]],
             topic = channel.topic
             if topic == "/eagc/scenario":
                 scenario = json.loads(message.data)
+            elif topic == "/eagc/score":  # the episode's EpisodeResult
+                total = EpisodeResult.model_validate_json(message.data).score.total
             elif topic == "/eagc/reply":
                 reply = json.loads(message.data)
                 current = None
@@ -46,7 +57,58 @@ def _read_log(mcap: Path) -> tuple[dict[str, Any], dict[int, list[list[float]]],
                 proprio = json.loads(message.data).get("proprio")
                 if proprio:
                     paths.setdefault(current, []).append([float(x) for x in proprio[:3]])
-    return scenario, paths, won
+    return scenario, paths, won, total
+
+
+def _title(scenario: dict[str, Any], k: int, won: int | None, total: float | None) -> str:
+    """Track, seed, split, family, the attempt and the score, within ``TITLE_CHARS``."""
+    hidden = scenario.get("params") or {}
+    score = "NOT SCORED" if total is None else f"SCORE {100 * total:.1f}/100"
+    head = f"TRACK2 SEED {scenario.get('seed')} {str(scenario.get('split')).upper()}"
+    family = str(hidden.get("family", "")).upper().replace("_", " ")
+    verdict = "SUCCEEDED" if k == won else "FAILED"
+    n = hidden.get("max_attempts", 3)
+    for attempt in (f"ATTEMPT {k} OF {n} {verdict}", f"ATT {k}/{n} {verdict}"):
+        title = f"{head} {family} {attempt} {score}"
+        if len(title) <= TITLE_CHARS:
+            return title
+    return f"{head} {score}"[:TITLE_CHARS]
+
+
+def _with_axis_values(png: bytes, demo_xyz: np.ndarray, attempt_xyz: np.ndarray,
+                      panel: int = 320) -> np.ndarray:
+    """The picture of ``render_attempt_vs_demo`` with the range of each panel's axes in
+    metres: horizontal (X) under the panel, vertical (Y, Z) at its right edge. The extent
+    is the one that function draws: both paths' bounding box, widened 15 %."""
+    from simhost.track2._raster import Canvas, decode_png
+
+    both = np.vstack([demo_xyz[:, :3], attempt_xyz[:, :3]])
+    lo, hi = both.min(axis=0), both.max(axis=0)
+    span = float(max(np.max(hi - lo), 0.05)) * 1.15
+    centre = (lo + hi) / 2
+    c = Canvas(1, 1, (255, 255, 255))
+    c.img = decode_png(png).copy()
+    head, margin, grey = 58, 12, (90, 90, 90)
+    y0 = head + margin
+    for k, (axis, name) in enumerate(((1, "Y"), (2, "Z"))):
+        x0 = margin + k * (panel + margin)
+        left, right = (f"X {centre[0] - span / 2:.3f} M", f"{centre[0] + span / 2:.3f} M")
+        c.text(y0 + panel + 3, x0, left, grey, scale=1)
+        c.text(y0 + panel + 3, x0 + panel - 4 * len(right), right, grey, scale=1)
+        top = f"{name} {centre[axis] + span / 2:.3f}"
+        bottom = f"{name} {centre[axis] - span / 2:.3f}"
+        c.text(y0 + 4, x0 + panel - 4 - 4 * len(top), top, grey, scale=1)
+        c.text(y0 + panel - 10, x0 + panel - 4 - 4 * len(bottom), bottom, grey, scale=1)
+    return c.img
+
+
+def _draw(demo: Path, attempt_xyz: np.ndarray, out: Path, title: str) -> None:
+    from simhost import write_png
+    from simhost.track2 import read_demo_packet, render_attempt_vs_demo
+
+    png = render_attempt_vs_demo(demo, attempt_xyz, title=title)
+    demo_xyz = np.asarray(read_demo_packet(demo).arrays["obs_proprio"], dtype=float)
+    write_png(out, _with_axis_values(png, demo_xyz, attempt_xyz))
 
 
 def attempt_png(
@@ -63,13 +125,13 @@ def attempt_png(
       FileNotFoundError: no MCAP log in the folder.
       ValueError: not a Track 2 episode, or the attempt has no recorded step.
     """
-    from simhost.track2 import render_attempt_vs_demo, write_demo_packet
+    from simhost.track2 import write_demo_packet
 
     root = Path(episode_dir)
     mcap = root / "host" / "episode.mcap"
     if not mcap.is_file():
         raise FileNotFoundError(f"{mcap} does not exist: is {root} an episode folder?")
-    scenario, paths, won = _read_log(mcap)
+    scenario, paths, won, total = _read_log(mcap)
     if scenario.get("track") != "track2":
         raise ValueError(f"{root} is a {scenario.get('track')!r} episode, not track2")
     if not paths:
@@ -80,18 +142,15 @@ def attempt_png(
     out = Path(path) if path is not None else root / "host" / f"attempt_{k}.png"
     demo = root / "input" / DEMO_FOLDER
     attempt_xyz = np.asarray(paths[k])
-    hidden = scenario.get("params") or {}
-    title = (f"TRACK2 SEED {scenario.get('seed')} {str(scenario.get('split')).upper()} "
-             f"{str(hidden.get('family', '')).upper().replace('_', ' ')} ATTEMPT {k} OF "
-             f"{hidden.get('max_attempts', 3)} {'SUCCEEDED' if k == won else 'FAILED'}")
+    title = _title(scenario, k, won, total)
     if (demo / "manifest.json").is_file():
-        render_attempt_vs_demo(demo, attempt_xyz, path=out, title=title)
+        _draw(demo, attempt_xyz, out, title)
         return out
     hidden = Track2Scenario.model_validate(scenario["params"])
     with tempfile.TemporaryDirectory() as tmp:
         write_demo_packet(Path(tmp) / DEMO_FOLDER, hidden.source, seed=hidden.demo_seed,
                           config=hidden.bench, frames=hidden.demo_frames)
-        render_attempt_vs_demo(Path(tmp) / DEMO_FOLDER, attempt_xyz, path=out, title=title)
+        _draw(Path(tmp) / DEMO_FOLDER, attempt_xyz, out, title)
     return out
 
 
@@ -138,13 +197,16 @@ def preview_png(scenario: Any, out: Path) -> Path:
     bar = int(round(0.05 / span * (panel - 1)))
     c.rect(y0 + panel - 12, x0 + 8, y0 + panel - 9, x0 + 8 + bar, INK)
     c.text(y0 + panel - 26, x0 + 8, "5 CM", INK)
-    c.text(y0 + 4, x0 + panel + margin, "PARTS AS NAMED DISCS", INK)
-    c.text(y0 + 20, x0 + panel + margin, f"DISTANCE {hidden.distance:.2f}", INK)
-    c.text(y0 + 36, x0 + panel + margin, f"DRAWS {hidden.draws}", INK)
+    side = [
+        "PARTS AS NAMED DISCS", "",
+        f"DISTANCE {hidden.distance:.2f}: HOW FAR", "THE INSTANCE IS FROM THE SOURCE",
+        "(0: THE SAME  1: THE MOST APART)", "",
+        f"DRAWS {hidden.draws}: INSTANCES DRAWN", "UNTIL THE EXPERT SOLVED ONE", "",
+        "BELOW: OVERVIEW CAMERA", "LEFT SOURCE  RIGHT INSTANCE"]
+    for i, line in enumerate(side):
+        c.text(y0 + 4 + 16 * i, x0 + panel + margin, line, INK)
     ys = head + panel + 2 * margin
     half = (width - 3 * margin) // 2
-    c.text(y0 + 60, x0 + panel + margin, "BELOW: OVERVIEW CAMERA", INK)
-    c.text(y0 + 76, x0 + panel + margin, "LEFT SOURCE  RIGHT INSTANCE", INK)
     for k, img in enumerate(shots):
         c.blit(ys, margin + k * (half + margin), _resize(img, half))
     out = Path(out)

@@ -95,5 +95,5 @@ def verdict(result: EpisodeResult, checks: list[Check]) -> str:
         return "verdict: the container meets the contract"
     first = failed[0]
     if len(failed) > 1:
-        return f"verdict: fails the contract on {len(failed)} points, first: {first.name}"
+        return f"verdict: {len(failed)} checks fail, first: {first.name}"  # <= 80 columns
     return f"verdict: fails the contract ({result.status.value}): {first.name}"

@@ -188,13 +188,30 @@ def episode_log(path: Path) -> Path:
     return path
 
 
+STARTUP_FLOOR_S = 20.0
+"""The least startup budget a time scale leaves: time for a real container to start."""
+
+
+def scaled_startup_s(time_scale: float) -> float:
+    """The startup budget under ``--time-scale``: the default one scaled, never below
+    STARTUP_FLOOR_S."""
+    from schemas import Limits
+
+    default = Limits.model_fields["startup_s"].default
+    return max(STARTUP_FLOOR_S, min(default, default * time_scale))
+
+
 def limits_of(**values: Any) -> Any:
-    """``schemas.Limits`` from command-line values; UsageError naming the option otherwise."""
+    """``schemas.Limits`` from command-line values; UsageError naming the option otherwise.
+    A time scale in (0, 1] scales the startup budget too (scaled_startup_s)."""
     from pydantic import ValidationError
 
     from schemas import Limits
     from schemas._errors import describe
 
+    scale = values.get("time_scale")
+    if "startup_s" not in values and isinstance(scale, int | float) and 0 < scale <= 1:
+        values["startup_s"] = scaled_startup_s(scale)
     try:
         return Limits(**values)
     except ValidationError as e:
@@ -202,3 +219,55 @@ def limits_of(**values: Any) -> Any:
         first = describe(e)[0]
         key, _, what = first.partition(": ")
         raise UsageError(f"--{options.get(key, key.replace('_', '-'))}: {what}") from None
+
+
+def _left(total_s: float) -> str:
+    return f"{max(0, int(total_s + 0.999))} s left"
+
+
+def wait_text(elapsed_s: float, limits: Any, stages: Any) -> str:
+    """What an episode's spinner says ``elapsed_s`` in: the wait for the agent's hello and
+    the startup budget left, then the stage the budgets reach and the time left at most."""
+    if elapsed_s < limits.startup_s:
+        return f"waiting for the agent's hello ({_left(limits.startup_s - elapsed_s)})"
+    t = elapsed_s - limits.startup_s
+    for stage in stages:
+        budget = stage.budget_s * limits.time_scale
+        if t < budget:
+            return f"stage {stage.name}, at most {_left(budget - t)}"
+        t -= budget
+    return "finishing the episode"
+
+
+class episode_spinner:  # noqa: N801 - used as a context manager, like a function
+    """``notes.status`` whose text says, each second, the stage and the time left."""
+
+    def __init__(self, status_of: Any, label: str, limits: Any, stages: Any) -> None:
+        self._status_of, self._label = status_of, label
+        self._limits, self._stages = limits, tuple(stages)
+
+    def text(self, elapsed_s: float) -> str:
+        return f"{self._label}: {wait_text(elapsed_s, self._limits, self._stages)}"
+
+    def __enter__(self) -> episode_spinner:
+        import threading
+        import time
+
+        self._cm = self._status_of(self.text(0.0))
+        status = self._cm.__enter__()
+        self._stop = threading.Event()
+        start = time.monotonic()
+
+        def tick() -> None:
+            while not self._stop.wait(1.0):
+                if status is not None:
+                    status.update(self.text(time.monotonic() - start))
+
+        self._thread = threading.Thread(target=tick, daemon=True, name="eagc-spinner")
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: Any) -> Any:
+        self._stop.set()
+        self._thread.join(2.0)
+        return self._cm.__exit__(*exc)

@@ -28,6 +28,7 @@ from orchestrator.cli.common import (
     check_track,
     episode_folder,
     episode_log,
+    episode_spinner,
     limits_of,
 )
 from orchestrator.cli.report import REPORT_CODES, report_cmd
@@ -115,6 +116,10 @@ def _episode_exit(result: Any) -> ExitCode:
     return ExitCode.OK if kind is None else ExitCode.INFRA if kind == "infra" else ExitCode.AGENT
 
 
+TIME_SCALE_HELP = ("Multiplies every stage budget (0-1], and the 120 s startup budget, "
+                   "never below 20 s (time for a container to start).")
+
+
 def _run_one(track: str, image: str, runtime: str, seed: int, split: str, time_scale: float,
              max_steps: int | None, memory_mb: int, cpus: float, runs_dir: Path,
              as_json: bool) -> int:
@@ -130,7 +135,8 @@ def _run_one(track: str, image: str, runtime: str, seed: int, split: str, time_s
     spec = EpisodeSpec(track=track, image=image, seed=seed, split=split, limits=limits,
                        runs_dir=runs_dir)
     agent_runtime = _runtime(runtime)
-    with notes.status(f"running one {track} episode ({runtime})…"):
+    with episode_spinner(notes.status, f"one {track} episode ({runtime})", limits,
+                         plugin.stages()):
         result = run_episode(spec, agent_runtime)
     if as_json:
         print(result.model_dump_json(indent=2))
@@ -148,7 +154,7 @@ def run_episode_cmd(
     seed: SeedOpt = 0,
     split: Annotated[str, typer.Option(help="A split of the track (standard, challenge, …).")
                      ] = "standard",
-    time_scale: Annotated[float, typer.Option(help="Multiplies every stage budget (0-1].")
+    time_scale: Annotated[float, typer.Option(help=TIME_SCALE_HELP)
                           ] = 1.0,
     max_steps: Annotated[int | None, typer.Option(help="Step cap per stage.")] = None,
     memory_mb: Annotated[int, typer.Option()] = 2048,
@@ -193,7 +199,7 @@ def test_agent(
     runtime: Annotated[str, typer.Option(help="docker (the sandbox) or local.")] = "docker",
     seed: Annotated[int, typer.Option(help="A public seed.", **SEED_RANGE)] = 1,
     split: Annotated[str, typer.Option(help="A split of the track.")] = "standard",
-    time_scale: Annotated[float, typer.Option(help="Multiplies every stage budget (0-1].")
+    time_scale: Annotated[float, typer.Option(help=TIME_SCALE_HELP)
                           ] = 0.1,
     memory_mb: Annotated[int, typer.Option()] = 2048,
     runs_dir: Annotated[Path, typer.Option()] = Path("runs"),
@@ -211,12 +217,14 @@ def test_agent(
         image = local_command(image)
     elif runtime == "docker" and len(image.split()) > 1:
         raise UsageError(f"{image!r} is a command, not an image: use --runtime local")
+    limits = limits_of(time_scale=time_scale, memory_mb=memory_mb)
     spec = EpisodeSpec(track=track, image=image, seed=seed, split=split, runs_dir=runs_dir,
-                       limits=limits_of(time_scale=time_scale, memory_mb=memory_mb))
+                       limits=limits)
     agent_runtime = _runtime(runtime)
     if runtime == "docker":
         check_image(image, agent_runtime.client)
-    with notes.status(f"one {track} episode with {image} ({runtime})…"):
+    with episode_spinner(notes.status, f"one {track} episode with {image} ({runtime})",
+                         limits, plugin.stages()):
         result = run_episode(spec, agent_runtime)
     print_result(result, console, team=True)
     table = Table(title="container contract", title_justify="left")

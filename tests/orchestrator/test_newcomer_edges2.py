@@ -1,0 +1,62 @@
+"""More of what a newcomer hit (issue 23 §2): the startup budget follows ``--time-scale``
+(never below a floor a real container needs) and the spinner says what is awaited and the
+time left; a frozen agent is named as such."""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+from typer.testing import CliRunner
+
+from orchestrator.cli.common import STARTUP_FLOOR_S, limits_of, wait_text
+from orchestrator.cli.main import app
+
+
+@pytest.fixture()
+def runs() -> Iterator[Path]:
+    folder = Path(tempfile.mkdtemp(prefix="eagc-nw2-", dir="/tmp"))  # short: socket paths
+    yield folder
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+def test_time_scale_scales_the_startup_budget_down_to_a_floor() -> None:
+    assert limits_of(time_scale=1.0).startup_s == 120.0
+    assert limits_of(time_scale=0.5).startup_s == 60.0
+    assert limits_of(time_scale=0.1).startup_s == STARTUP_FLOOR_S == 20.0
+    assert limits_of(time_scale=0.01).startup_s == 20.0
+
+
+def test_help_says_the_startup_budget_scales() -> None:
+    for cmd in (["run-episode", "--help"], ["test", "--help"]):
+        out = " ".join(CliRunner().invoke(app, cmd, env={"COLUMNS": "200"}).stdout.split())
+        assert "startup budget" in out and "20 s" in out, cmd
+
+
+def test_spinner_says_the_wait_and_the_stage_with_time_left() -> None:
+    limits = limits_of(time_scale=0.5)
+    stages = [SimpleNamespace(name="explore", budget_s=60.0),
+              SimpleNamespace(name="reach", budget_s=60.0)]
+    assert wait_text(5.0, limits, stages) == "waiting for the agent's hello (55 s left)"
+    assert wait_text(60.0 + 12.0, limits, stages) == "stage explore, at most 18 s left"
+    assert wait_text(60.0 + 30.0 + 1.0, limits, stages) == "stage reach, at most 29 s left"
+    assert wait_text(1000.0, limits, stages) == "finishing the episode"
+
+
+@pytest.mark.slow
+def test_an_agent_that_never_says_hello_costs_the_scaled_startup(runs: Path) -> None:
+    silent = f"{sys.executable} -c 'import time; time.sleep(300)'"
+    start = time.monotonic()
+    r = CliRunner().invoke(app, ["run-episode", "sanity", "--runtime", "local", "--image",
+                                 silent, "--time-scale", "0.1", "--runs-dir", str(runs)],
+                           env={"COLUMNS": "80"})
+    took = time.monotonic() - start
+    assert r.exit_code == 4, r.output
+    assert "startup 20 s" in r.stdout, r.stdout
+    assert took < 60, took

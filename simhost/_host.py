@@ -138,6 +138,8 @@ class HostOutcome:
     latencies_s: list[float] = field(default_factory=list)
     agent_seen: bool = False
     hello_at: float | None = None
+    last_request_at: float | None = None  # time.monotonic() of the last request received
+    ended_at: float | None = None  # time.monotonic() when the episode ended
     internal_error: str | None = None
     sim_warnings: int = 0
 
@@ -435,6 +437,7 @@ class SimHost:
 
     def _serve_one(self, received: float, buf: bytes) -> None:
         self._busy_since = received
+        self.outcome.last_request_at = received
         self._rid = None
         try:
             reply = self._handle(buf, received)
@@ -683,6 +686,7 @@ class SimHost:
         else:
             self._phase = "over"
             self.outcome.end_reason = _LAST_STAGE_END[ended_by]
+            self.outcome.ended_at = time.monotonic()
             self._event("episode_end", {"reason": self.outcome.end_reason})
 
     def _finish(self, reason: EndReason, ended_by: StageEnd) -> None:
@@ -692,6 +696,7 @@ class SimHost:
         running = self._phase == "running" and self._stage_name not in self.outcome.stage_ends
         self._phase = "over"
         self.outcome.end_reason = reason
+        self.outcome.ended_at = time.monotonic()
         try:
             if running:
                 self._end_stage(ended_by, {})

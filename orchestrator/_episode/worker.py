@@ -199,7 +199,14 @@ def _classify(
             msg = "the agent never connected within the startup budget"
         return EpisodeStatus.AGENT_TIMEOUT, f"startup {limits.startup_s:g} s", msg
     if reason == EndReason.BUDGET:
-        return (EpisodeStatus.AGENT_TIMEOUT, f"stage budget of {stage!r}",
+        limit = f"stage budget of {stage!r}"
+        quiet = None  # seconds from the agent's last request to the end
+        if outcome.last_request_at is not None and outcome.ended_at is not None:
+            quiet = outcome.ended_at - outcome.last_request_at
+        if quiet is not None and quiet >= max(5.0, outcome.stage_durations_s.get(stage, 0) / 2):
+            return (EpisodeStatus.AGENT_TIMEOUT, limit, f"the agent sent no request for "
+                    f"{quiet:.0f} s (stage {stage!r} ran out of time)")
+        return (EpisodeStatus.AGENT_TIMEOUT, limit,
                 f"the last stage {stage!r} ran out of time before the agent finished")
     # The last stage's step budget used up (EndReason.STEPS) is an ordinary end: the task
     # is scored as far as it got, and the agent did nothing wrong.

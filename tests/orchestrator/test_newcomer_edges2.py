@@ -60,3 +60,40 @@ def test_an_agent_that_never_says_hello_costs_the_scaled_startup(runs: Path) -> 
     assert r.exit_code == 4, r.output
     assert "startup 20 s" in r.stdout, r.stdout
     assert took < 60, took
+
+
+FROZEN = Path(__file__).resolve().parents[1] / "containers" / "frozen" / "agent.py"
+
+
+def test_classify_names_a_silent_agent_and_not_a_busy_one() -> None:
+    from orchestrator._episode.worker import _classify
+    from schemas import ContainerExit, EpisodeStatus, Limits
+    from simhost._host import EndReason, HostOutcome
+
+    def outcome(last: float) -> HostOutcome:
+        return HostOutcome(end_reason=EndReason.BUDGET, stages_reached=["explore", "reach"],
+                           stage_durations_s={"explore": 6.0, "reach": 6.0},
+                           last_request_at=last, ended_at=100.0)
+
+    status, limit, msg = _classify(outcome(88.0), ContainerExit(), Limits(), [])
+    assert status is EpisodeStatus.AGENT_TIMEOUT and limit == "stage budget of 'reach'"
+    assert msg == "the agent sent no request for 12 s (stage 'reach' ran out of time)"
+    _, _, busy = _classify(outcome(99.9), ContainerExit(), Limits(), [])
+    assert busy == "the last stage 'reach' ran out of time before the agent finished"
+
+
+@pytest.mark.slow
+def test_a_frozen_agent_is_reported_as_silent(runs: Path) -> None:
+    from orchestrator._episode.worker import EpisodeSpec, run_episode
+    from orchestrator._runtimes.local import LocalProcessRuntime
+    from schemas import EpisodeStatus, Limits
+
+    result = run_episode(
+        EpisodeSpec(track="sanity", image=f"{sys.executable} {FROZEN}", seed=1,
+                    split="standard", runs_dir=runs, limits=Limits(time_scale=0.05)),
+        LocalProcessRuntime(quiet=True))
+    assert result.status is EpisodeStatus.AGENT_TIMEOUT
+    assert result.failure is not None
+    assert result.failure.limit_hit == "stage budget of 'reach'"
+    assert result.failure.message.startswith("the agent sent no request for "), result.failure
+    assert "(stage 'reach' ran out of time)" in result.failure.message

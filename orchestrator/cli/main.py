@@ -366,6 +366,21 @@ def tracks() -> None:
                       f"  splits: {', '.join(plugin.split_names())}")
 
 
+def _one_line_summaries(typer_app: typer.Typer) -> None:
+    """Each command's summary in ``eagc --help``: the first paragraph of its docstring on
+    one line (the listing kept the docstring's line breaks mid-sentence)."""
+    for info in typer_app.registered_commands:
+        doc = info.help or (info.callback.__doc__ if info.callback else None)
+        if info.short_help is None and doc:
+            info.short_help = " ".join(doc.strip().split("\n\n")[0].split())
+    for group in typer_app.registered_groups:
+        if group.typer_instance is not None:
+            _one_line_summaries(group.typer_instance)
+
+
+_one_line_summaries(app)
+
+
 def main() -> None:
     # Sim hosts render headless (EGL on Mesa); must be set before mujoco is first imported.
     os.environ.setdefault("MUJOCO_GL", "egl")

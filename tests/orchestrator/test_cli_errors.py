@@ -155,3 +155,14 @@ def test_an_unexpected_exception_is_one_line_and_keeps_its_traceback() -> None:
         assert "Traceback" in path.read_text() and "divided by zero" in path.read_text()
     finally:
         path.unlink()
+
+
+def test_every_command_has_a_one_line_summary_in_the_help() -> None:
+    """`eagc --help` lists each command with its docstring's first paragraph on one line
+    (rich kept the docstring's line breaks, cutting the listing mid-sentence)."""
+    from orchestrator.cli.campaign import campaign_app
+
+    for typer_app in (app, campaign_app):
+        for info in typer_app.registered_commands:
+            summary = info.short_help or info.help or ""
+            assert summary and "\n" not in summary, (info.name, summary)

@@ -205,20 +205,44 @@ class Driver:
             self._fail(e)
 
     def _progress(self, total: int) -> tuple[Any, Any]:
+        """A progress bar on a terminal that fits its width (the times never cut); one plain
+        line per finished episode where the console is not a terminal (a pipe, a file)."""
         from rich.progress import (
             BarColumn,
             MofNCompleteColumn,
             Progress,
+            ProgressColumn,
             TextColumn,
             TimeElapsedColumn,
             TimeRemainingColumn,
         )
+        from rich.table import Column
+        from rich.text import Text
+
+        if not self.console.is_terminal:
+            plain = _PlainProgress(self.console, self.name, total, self.options.progress)
+            return plain, None
+
+        class Counts(ProgressColumn):
+            """'2 running', then the failed and retried ones where there are any."""
+
+            def render(self, task: Any) -> Text:
+                f = task.fields
+                parts = [f"{f['running']} running"]
+                parts += [f"{f['failed']} failed"] if f["failed"] else []
+                parts += [f"{f['retries']} retried"] if f["retries"] else []
+                return Text(" · ".join(parts))
+
+        def whole() -> Column:
+            return Column(no_wrap=True, overflow="ignore")
 
         progress = Progress(
-            TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-            TextColumn("{task.fields[running]} running · {task.fields[failed]} failed · "
-                       "{task.fields[retries]} retried"),
-            TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+            TextColumn("[bold]{task.description}",
+                       table_column=Column(no_wrap=True, overflow="ellipsis", max_width=18)),
+            BarColumn(bar_width=None, table_column=Column(ratio=1)),
+            MofNCompleteColumn(table_column=whole()), Counts(table_column=whole()),
+            TimeElapsedColumn(table_column=whole()), TextColumn("ETA", table_column=whole()),
+            TimeRemainingColumn(table_column=whole()),
             console=self.console, disable=not self.options.progress,
         )
         bar = progress.add_task(self.name, total=total, running=0, failed=0, retries=0)
@@ -491,3 +515,35 @@ class Driver:
             + ("Start the Ray cluster again, then run the campaign again: it resumes."
                if lost else f"Then run the campaign again (it resumes); `{REBUILD}` adds "
                "results that finished after the failure."), code) from None
+
+
+class _PlainProgress:
+    """The progress of a campaign where nobody watches a terminal: one line per finished
+    episode (``<campaign>: 3/10 episodes done · 1 failed · 0 retried · 0:01:05``), printed
+    as it happens; the same calls as rich's Progress."""
+
+    def __init__(self, console: Any, name: str, total: int, show: bool) -> None:
+        import time
+
+        self.console, self.name, self.total, self.show = console, name, total, show
+        self.done = 0
+        self.start = time.monotonic()
+
+    def __enter__(self) -> _PlainProgress:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        return None
+
+    def update(self, _bar: Any, *, completed: int, failed: int = 0, retries: int = 0,
+               **_: Any) -> None:
+        import time
+
+        while self.show and self.done < completed:
+            self.done += 1
+            took = int(time.monotonic() - self.start)
+            self.console.print(
+                f"{self.name}: {self.done}/{self.total} episodes done · {failed} failed · "
+                f"{retries} retried · {took // 3600}:{took // 60 % 60:02d}:{took % 60:02d}",
+                highlight=False, markup=False, soft_wrap=True)
+

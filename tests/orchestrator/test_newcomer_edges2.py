@@ -97,3 +97,42 @@ def test_a_frozen_agent_is_reported_as_silent(runs: Path) -> None:
     assert result.failure.limit_hit == "stage budget of 'reach'"
     assert result.failure.message.startswith("the agent sent no request for "), result.failure
     assert "(stage 'reach' ran out of time)" in result.failure.message
+
+
+def _driver_progress(terminal: bool, name: str = "demo-track1-local") -> tuple:
+    import io
+
+    from rich.console import Console
+
+    from orchestrator._campaign.driver import Driver
+
+    out = io.StringIO()
+    console = Console(file=out, width=80, force_terminal=terminal, color_system=None)
+    me = SimpleNamespace(console=console, name=name, options=SimpleNamespace(progress=True))
+    progress, bar = Driver._progress(me, 10)  # type: ignore[arg-type]
+    return progress, bar, out, console
+
+
+def test_piped_campaign_progress_is_a_plain_line_per_finished_episode() -> None:
+    progress, bar, out, _ = _driver_progress(terminal=False)
+    with progress:
+        progress.update(bar, completed=0, running=2, failed=0, retries=0)
+        assert out.getvalue() == ""
+        progress.update(bar, completed=1, running=2, failed=0, retries=0)
+        progress.update(bar, completed=3, running=1, failed=1, retries=1)
+        lines = out.getvalue().splitlines()  # before the end, as it happens
+    assert len(lines) == 3, lines
+    assert lines[0].startswith("demo-track1-local: 1/10 episodes done · 0 failed")
+    assert lines[2].startswith("demo-track1-local: 3/10 episodes done · 1 failed · 1 retried")
+    assert all(len(line) <= 80 and "\x1b" not in line for line in lines)
+
+
+@pytest.mark.parametrize("name", ["demo-track1-local", "a-rather-long-campaign-name-of-a-team"])
+def test_the_campaign_bar_keeps_its_times_whole_in_80_columns(name: str) -> None:
+    progress, bar, out, console = _driver_progress(terminal=True, name=name)
+    progress.update(bar, completed=3, running=2, failed=1, retries=4)
+    console.print(progress.make_tasks_table(progress.tasks))
+    line, = out.getvalue().splitlines()
+    assert len(line) <= 80
+    assert "…" not in line.split("3/10")[1], line
+    assert "1 failed · 4 retried" in line and "ETA" in line, line

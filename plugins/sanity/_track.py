@@ -14,6 +14,7 @@ Scenario parameters (a campaign's split ``params``): ``exception_probability``, 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -247,6 +248,16 @@ class SanityTrack(TrackPlugin):
                 **camera,
             },
         )
+
+    def picture(self, episode_dir: Path, out: Path | None = None) -> Path:
+        """The arena from above: the robot's path by stage, its start and the target."""
+        from plugins.sanity._picture import path_png
+
+        path = path_png(episode_dir)
+        if out is not None and out != path:
+            out.parent.mkdir(parents=True, exist_ok=True)
+            path = path.replace(out)
+        return path
 
     def make_episode(self, scenario: Scenario) -> TrackEpisode:
         return SanityEpisode(scenario)

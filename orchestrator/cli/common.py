@@ -225,34 +225,60 @@ def _left(total_s: float) -> str:
     return f"{max(0, int(total_s + 0.999))} s left"
 
 
-def wait_text(elapsed_s: float, limits: Any, stages: Any) -> str:
+def wait_text(elapsed_s: float, limits: Any, stage: Any = None, stage_s: float = 0.0) -> str:
     """What an episode's spinner says ``elapsed_s`` in: the wait for the agent's hello and
-    the startup budget left, then the stage the budgets reach and the time left at most."""
-    if elapsed_s < limits.startup_s:
-        return f"waiting for the agent's hello ({_left(limits.startup_s - elapsed_s)})"
-    t = elapsed_s - limits.startup_s
-    for stage in stages:
-        budget = stage.budget_s * limits.time_scale
-        if t < budget:
-            return f"stage {stage.name}, at most {_left(budget - t)}"
-        t -= budget
-    return "finishing the episode"
+    the startup budget left, then (``stage``, a StageSpec begun ``stage_s`` ago) the stage
+    and the time left of its budget."""
+    if stage is None:
+        if elapsed_s < limits.startup_s:
+            return f"waiting for the agent's hello ({_left(limits.startup_s - elapsed_s)})"
+        return "the startup budget is up"
+    return f"stage {stage.name}, {_left(stage.budget_s * limits.time_scale - stage_s)}"
 
 
 class episode_spinner:  # noqa: N801 - used as a context manager, like a function
-    """``notes.status`` whose text says, each second, the stage and the time left."""
+    """``notes.status`` whose text says, each second, what the episode waits for and the
+    time left: it follows the stages through the track's episode (``plugin`` is the cached
+    instance that the worker loads too)."""
 
-    def __init__(self, status_of: Any, label: str, limits: Any, stages: Any) -> None:
-        self._status_of, self._label = status_of, label
-        self._limits, self._stages = limits, tuple(stages)
+    def __init__(self, status_of: Any, label: str, limits: Any, plugin: Any) -> None:
+        self._status_of, self._label, self._limits, self._plugin = (
+            status_of, label, limits, plugin)
+        self._stages = {s.name: s for s in plugin.stages()}
+        self._stage: Any = None
+        self._stage_at = 0.0
 
-    def text(self, elapsed_s: float) -> str:
-        return f"{self._label}: {wait_text(elapsed_s, self._limits, self._stages)}"
+    def text(self, elapsed_s: float, now: float | None = None) -> str:
+        import time
+
+        stage_s = (now if now is not None else time.monotonic()) - self._stage_at
+        what = wait_text(elapsed_s, self._limits, self._stage, stage_s)
+        return f"{self._label}: {what}"
+
+    def _follow(self) -> None:
+        import time
+
+        make = type(self._plugin).make_episode
+        spinner = self
+
+        def make_episode(scenario: Any) -> Any:
+            episode = make(spinner._plugin, scenario)
+            started = episode.on_stage_start
+
+            def on_stage_start(stage: str) -> Any:
+                spinner._stage, spinner._stage_at = spinner._stages.get(stage), time.monotonic()
+                return started(stage)
+
+            episode.on_stage_start = on_stage_start
+            return episode
+
+        self._plugin.make_episode = make_episode
 
     def __enter__(self) -> episode_spinner:
         import threading
         import time
 
+        self._follow()
         self._cm = self._status_of(self.text(0.0))
         status = self._cm.__enter__()
         self._stop = threading.Event()
@@ -270,4 +296,5 @@ class episode_spinner:  # noqa: N801 - used as a context manager, like a functio
     def __exit__(self, *exc: Any) -> Any:
         self._stop.set()
         self._thread.join(2.0)
+        self._plugin.__dict__.pop("make_episode", None)
         return self._cm.__exit__(*exc)

@@ -135,8 +135,7 @@ def _run_one(track: str, image: str, runtime: str, seed: int, split: str, time_s
     spec = EpisodeSpec(track=track, image=image, seed=seed, split=split, limits=limits,
                        runs_dir=runs_dir)
     agent_runtime = _runtime(runtime)
-    with episode_spinner(notes.status, f"one {track} episode ({runtime})", limits,
-                         plugin.stages()):
+    with episode_spinner(notes.status, f"one {track} episode ({runtime})", limits, plugin):
         result = run_episode(spec, agent_runtime)
     if as_json:
         print(result.model_dump_json(indent=2))
@@ -224,7 +223,7 @@ def test_agent(
     if runtime == "docker":
         check_image(image, agent_runtime.client)
     with episode_spinner(notes.status, f"one {track} episode with {image} ({runtime})",
-                         limits, plugin.stages()):
+                         limits, plugin):
         result = run_episode(spec, agent_runtime)
     print_result(result, console, team=True)
     table = Table(title="container contract", title_justify="left")

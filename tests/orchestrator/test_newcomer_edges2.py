@@ -18,6 +18,8 @@ from typer.testing import CliRunner
 from orchestrator.cli.common import STARTUP_FLOOR_S, limits_of, wait_text
 from orchestrator.cli.main import app
 
+FROZEN = Path(__file__).resolve().parents[1] / "containers" / "frozen" / "agent.py"
+
 
 @pytest.fixture()
 def runs() -> Iterator[Path]:
@@ -41,12 +43,40 @@ def test_help_says_the_startup_budget_scales() -> None:
 
 def test_spinner_says_the_wait_and_the_stage_with_time_left() -> None:
     limits = limits_of(time_scale=0.5)
-    stages = [SimpleNamespace(name="explore", budget_s=60.0),
-              SimpleNamespace(name="reach", budget_s=60.0)]
-    assert wait_text(5.0, limits, stages) == "waiting for the agent's hello (55 s left)"
-    assert wait_text(60.0 + 12.0, limits, stages) == "stage explore, at most 18 s left"
-    assert wait_text(60.0 + 30.0 + 1.0, limits, stages) == "stage reach, at most 29 s left"
-    assert wait_text(1000.0, limits, stages) == "finishing the episode"
+    explore = SimpleNamespace(name="explore", budget_s=60.0)
+    assert wait_text(5.0, limits) == "waiting for the agent's hello (55 s left)"
+    assert wait_text(61.0, limits) == "the startup budget is up"
+    assert wait_text(9.0, limits, explore, 12.0) == "stage explore, 18 s left"
+
+
+@pytest.mark.slow
+def test_the_spinner_follows_the_stages_of_the_episode(runs: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    import contextlib
+
+    main = sys.modules["orchestrator.cli.main"]  # the package's name `main` is a function
+    said: list[str] = []
+
+    class Status:
+        def update(self, text: str) -> None:
+            said.append(text)
+
+    @contextlib.contextmanager
+    def status(text: str) -> Iterator[Status]:
+        said.append(text)
+        yield Status()
+
+    monkeypatch.setattr(main.notes, "status", status)
+    frozen = f"{sys.executable} {FROZEN}"
+    r = CliRunner().invoke(app, ["run-episode", "sanity", "--runtime", "local", "--image",
+                                 frozen, "--time-scale", "0.05", "--runs-dir", str(runs)])
+    assert r.exit_code == 4, r.output
+    assert said[0].endswith(": waiting for the agent's hello (20 s left)"), said
+    assert any(": stage explore, " in t and t.endswith(" s left") for t in said), said
+    assert any(": stage reach, " in t for t in said), said
+    from plugins import load_track
+
+    assert "make_episode" not in vars(load_track("sanity"))  # the plugin as it was
 
 
 @pytest.mark.slow
@@ -61,8 +91,6 @@ def test_an_agent_that_never_says_hello_costs_the_scaled_startup(runs: Path) -> 
     assert "startup 20 s" in r.stdout, r.stdout
     assert took < 60, took
 
-
-FROZEN = Path(__file__).resolve().parents[1] / "containers" / "frozen" / "agent.py"
 
 
 def test_classify_names_a_silent_agent_and_not_a_busy_one() -> None:

@@ -188,8 +188,9 @@ def episode_log(path: Path) -> Path:
     return path
 
 
-STARTUP_FLOOR_S = 20.0
-"""The least startup budget a time scale leaves: time for a real container to start."""
+STARTUP_FLOOR_S = 60.0
+"""The least startup budget a time scale leaves: time for a real container to start and
+load its models (a campaign grants the full 120 s)."""
 
 
 def scaled_startup_s(time_scale: float) -> float:

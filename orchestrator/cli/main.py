@@ -117,7 +117,8 @@ def _episode_exit(result: Any) -> ExitCode:
 
 
 TIME_SCALE_HELP = ("Multiplies every stage budget (0-1], and the 120 s startup budget, "
-                   "never below 20 s (time for a container to start).")
+                   "never below 60 s (time for a container to start and load its "
+                   "models).")
 
 
 def _run_one(track: str, image: str, runtime: str, seed: int, split: str, time_scale: float,

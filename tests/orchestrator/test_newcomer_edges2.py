@@ -30,15 +30,15 @@ def runs() -> Iterator[Path]:
 
 def test_time_scale_scales_the_startup_budget_down_to_a_floor() -> None:
     assert limits_of(time_scale=1.0).startup_s == 120.0
-    assert limits_of(time_scale=0.5).startup_s == 60.0
-    assert limits_of(time_scale=0.1).startup_s == STARTUP_FLOOR_S == 20.0
-    assert limits_of(time_scale=0.01).startup_s == 20.0
+    assert limits_of(time_scale=0.75).startup_s == 90.0
+    assert limits_of(time_scale=0.1).startup_s == STARTUP_FLOOR_S == 60.0
+    assert limits_of(time_scale=0.01).startup_s == 60.0
 
 
 def test_help_says_the_startup_budget_scales() -> None:
     for cmd in (["run-episode", "--help"], ["test", "--help"]):
         out = " ".join(CliRunner().invoke(app, cmd, env={"COLUMNS": "200"}).stdout.split())
-        assert "startup budget" in out and "20 s" in out, cmd
+        assert "startup budget" in out and "60 s" in out, cmd
 
 
 def test_spinner_says_the_wait_and_the_stage_with_time_left() -> None:
@@ -71,7 +71,7 @@ def test_the_spinner_follows_the_stages_of_the_episode(runs: Path,
     r = CliRunner().invoke(app, ["run-episode", "sanity", "--runtime", "local", "--image",
                                  frozen, "--time-scale", "0.05", "--runs-dir", str(runs)])
     assert r.exit_code == 4, r.output
-    assert said[0].endswith(": waiting for the agent's hello (20 s left)"), said
+    assert said[0].endswith(": waiting for the agent's hello (60 s left)"), said
     assert any(": stage explore, " in t and t.endswith(" s left") for t in said), said
     assert any(": stage reach, " in t for t in said), said
     from plugins import load_track
@@ -80,7 +80,12 @@ def test_the_spinner_follows_the_stages_of_the_episode(runs: Path,
 
 
 @pytest.mark.slow
-def test_an_agent_that_never_says_hello_costs_the_scaled_startup(runs: Path) -> None:
+def test_an_agent_that_never_says_hello_costs_the_scaled_startup(
+        runs: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The floor lowered to 20 s here (60 s in use) to keep the test short."""
+    from orchestrator.cli import common
+
+    monkeypatch.setattr(common, "STARTUP_FLOOR_S", 20.0)
     silent = f"{sys.executable} -c 'import time; time.sleep(300)'"
     start = time.monotonic()
     r = CliRunner().invoke(app, ["run-episode", "sanity", "--runtime", "local", "--image",

@@ -8,13 +8,11 @@ a 1 m scale bar.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from schemas import EpisodeResult
+from plugins._picture_log import read_episode, title_lines
 
 HALF = 2.0  # the arena's walls at ±2 m
 SCALE = 80  # pixels per metre
@@ -23,29 +21,6 @@ START, TARGET, MOVED = (40, 160, 40), (220, 0, 200), (220, 20, 20)
 STAGE_COLOURS = {"explore": (30, 90, 220), "reach": (240, 120, 0)}
 Colour = tuple[int, int, int]
 _LINE = 14  # pixels per line of size-2 text
-
-
-def _read(mcap: Path) -> tuple[dict[str, Any], list[tuple[int, list[float]]],
-                               list[tuple[int, dict[str, Any]]], float | None]:
-    from mcap.reader import make_reader
-
-    scenario: dict[str, Any] = {}
-    points: list[tuple[int, list[float]]] = []
-    events: list[tuple[int, dict[str, Any]]] = []
-    total: float | None = None
-    with mcap.open("rb") as f:
-        for _, channel, message in make_reader(f).iter_messages(
-                topics=["/eagc/scenario", "/eagc/observation", "/eagc/event", "/eagc/score"]):
-            doc = json.loads(message.data)
-            if channel.topic == "/eagc/scenario":
-                scenario = doc
-            elif channel.topic == "/eagc/observation" and "position" in doc:
-                points.append((message.log_time, doc["position"]))
-            elif channel.topic == "/eagc/event":
-                events.append((message.log_time, doc))
-            elif channel.topic == "/eagc/score":
-                total = EpisodeResult.model_validate(doc).score.total
-    return scenario, points, events, total
 
 
 def _px(x: float, y: float) -> tuple[float, float]:
@@ -71,7 +46,6 @@ def _polyline(img: np.ndarray, points: list[list[float]], colour: Colour) -> Non
 
 def path_png(episode_dir: str | Path) -> Path:
     """Draws a sanity episode from ``host/episode.mcap``; writes ``host/path.png``."""
-    from plugins.track1._pictures import title_lines
     from simhost._png import write_png
     from simhost.track1 import draw_text
 
@@ -79,7 +53,8 @@ def path_png(episode_dir: str | Path) -> Path:
     mcap = host / "episode.mcap"
     if not mcap.is_file():
         raise FileNotFoundError(f"{mcap} does not exist: is {episode_dir} an episode folder?")
-    scenario, points, events, total = _read(mcap)
+    log = read_episode(mcap, "position")
+    scenario, points, events, total = log.scenario, log.poses, log.events, log.total
     if scenario.get("track") != "sanity":
         raise ValueError(f"{mcap} is a {scenario.get('track')!r} episode, not sanity")
     params = scenario.get("params", {})

@@ -12,7 +12,6 @@ planning (no motion) grey, execution orange.
 
 from __future__ import annotations
 
-import json
 import math
 import textwrap
 from pathlib import Path
@@ -20,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from plugins._picture_log import read_episode, title_lines
 from plugins.track1._types import Task, Track1Scenario
-from schemas import EpisodeResult
 
 ITEM, GOAL, EXCEPTION = (220, 0, 200), (0, 170, 210), (220, 20, 20)
 STAGE_COLOURS = {"exploration": (30, 90, 220), "planning": (120, 120, 120),
@@ -73,14 +72,6 @@ def _mark_task(overlay: _Overlay, layout: Any, task: Task) -> None:
             else:
                 x, y = e.pos
             overlay.ring(x, y, colour)
-
-
-def title_lines(lines: list[str], width: int) -> list[str]:
-    """``lines`` wrapped so that none runs past a picture ``width`` pixels wide (8 px a
-    character, 8 px of margin each side); a word longer than a line is cut."""
-    chars = max(8, (width - 16) // 8)
-    return [part for line in lines
-            for part in textwrap.wrap(line, chars, break_on_hyphens=False) or [""]]
 
 
 def _framed(img: np.ndarray, title: list[str], legend: list[tuple[str, Colour]]) -> np.ndarray:
@@ -167,25 +158,8 @@ def preview(spec: Track1Scenario, seed: int, split: str, out_dir: str | Path) ->
 
 def _read_mcap(path: Path) -> tuple[dict[str, Any], list[tuple[int, list[float]]],
                                     list[tuple[int, dict[str, Any]]], float | None]:
-    from mcap.reader import make_reader
-
-    scenario: dict[str, Any] = {}
-    poses: list[tuple[int, list[float]]] = []
-    events: list[tuple[int, dict[str, Any]]] = []
-    total: float | None = None
-    with path.open("rb") as f:
-        for _, channel, message in make_reader(f).iter_messages(
-                topics=["/eagc/scenario", "/eagc/observation", "/eagc/event", "/eagc/score"]):
-            doc = json.loads(message.data)
-            if channel.topic == "/eagc/scenario":
-                scenario = doc
-            elif channel.topic == "/eagc/observation" and "odometry" in doc:
-                poses.append((message.log_time, doc["odometry"]))
-            elif channel.topic == "/eagc/event":
-                events.append((message.log_time, doc))
-            elif channel.topic == "/eagc/score":  # the episode's EpisodeResult
-                total = EpisodeResult.model_validate(doc).score.total
-    return scenario, poses, events, total
+    log = read_episode(path, "odometry")
+    return log.scenario, log.poses, log.events, log.total
 
 
 def trajectory_png(episode_dir: str | Path) -> Path:

@@ -9,6 +9,7 @@ checked, the score), as in ``tests/orchestrator/test_local_runtime.py``.
 from __future__ import annotations
 
 import json
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -245,9 +246,10 @@ def test_the_agent_base_image_runs_the_policy_in_the_sandbox(tmp_path: Path) -> 
     try:
         client = docker_client()
     except InfraError as e:
+        if os.environ.get("CI"):
+            pytest.fail(f"CI must have a Docker engine: {e}")
         pytest.skip(f"no Docker engine here ({e}); CI always has one")
-    # A tag of its own, always rebuilt: the shared agent base's hash does not cover
-    # simhost/_gym_client.py, so it could be older than this client.
+    # A tag of its own, always rebuilt, so that this test never runs an older client.
     base = build_agent_base(client, say=lambda m: None, force=True,
                             tag="eagc-test/agent-base-gym:latest")
     context = tmp_path / "image"

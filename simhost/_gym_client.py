@@ -45,7 +45,7 @@ from schemas._protocol import FieldSpec, HelloReply, HostMessage
 from simhost._errors import SimHostError
 from simhost._outputs import LOG_FILE, OutputFileError, OutputFiles
 from simhost._plain_spaces import PlainBox, PlainDict, PlainDiscrete
-from simhost.agent import HostLost, RemoteEnv, TimeStep
+from simhost._remote import HostLost, RemoteEnv, TimeStep
 
 try:
     import gymnasium

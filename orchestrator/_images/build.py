@@ -38,7 +38,8 @@ HASH_LABEL = "eagc.build-hash"
 MIRROR = "http://deb.debian.org/debian"
 CLIENT_SOURCES = ("pyproject.toml", "schemas", "simhost/__init__.py", "simhost/agent.py",
                   "simhost/_wire.py", "simhost/_transport.py", "simhost/_outputs.py",
-                  "simhost/_errors.py", "simhost/_gym_client.py", "simhost/_plain_spaces.py")
+                  "simhost/_errors.py", "simhost/_gym_client.py", "simhost/_plain_spaces.py",
+                  "simhost/_remote.py")
 
 
 def example_images() -> dict[str, Path]:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import logging
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from orchestrator._campaign.spec import (
     EXIT_CLUSTER,
@@ -41,18 +41,20 @@ from orchestrator._campaign.spec import (
     sigterm_as_interrupt,
     store_path,
 )
-from orchestrator._results.store import REBUILD, StoreDamaged, StoreError
+from orchestrator._results.store import REBUILD, EpisodeKey, StoreDamaged, StoreError
 from schemas import (
     CampaignSpec,
     Committed,
     EpisodeResult,
-    EpisodeWhere,
     Finished,
     Retried,
     Started,
     Stopped,
     Submitted,
 )
+
+if TYPE_CHECKING:
+    from orchestrator._campaign.fanout import EpisodeJob
 
 log = logging.getLogger("eagc.campaign")
 
@@ -114,7 +116,7 @@ class Driver:
         self.store = ResultsStore(store_path(spec))
         self.events = Events(self.folder / "events.jsonl")
         self.report = CampaignReport(spec.name, planned=0)
-        self.pending: dict[Any, Any] = {}  # ObjectRef → EpisodeJob
+        self.pending: dict[Any, EpisodeJob] = {}  # ObjectRef → its job
         self.running: dict[str, Started] = {}  # episode id → its worker's "started" report
         self.finished: set[str] = set()
         self.failed = 0
@@ -248,19 +250,20 @@ class Driver:
         bar = progress.add_task(self.name, total=total, running=0, failed=0, retries=0)
         return progress, bar
 
-    def _submit(self, key: Any, retry: int) -> None:
-        from orchestrator._campaign.fanout import EpisodeJob, code_version, submit
-        from orchestrator._episode.worker import new_episode_id
+    def _submit(self, key: EpisodeKey, retry: int) -> None:
+        from orchestrator._campaign.fanout import EpisodeJob, campaign_labels, code_version, submit
+        from orchestrator._episode.worker import EpisodeSpec, new_episode_id
 
         pin = self.pinned[key.submission]
         split = next(s for s in self.spec.splits if s.name == key.split)
-        job = EpisodeJob(
-            campaign=self.name, submission=key.submission, split=key.split, index=key.index,
-            retry=retry, episode=new_episode_id(), track=self.spec.track, image=pin.run,
-            digest=pin.digest, seed=self.seeds[(key.split, key.index)], params=split.params,
-            limits=self.spec.limits, runs_dir=str(self.folder), runtime=self.spec.runtime,
-            archive=self.archives.get(key.submission, []), code=code_version(),
-        )
+        episode = EpisodeSpec(
+            track=self.spec.track, image=pin.run, seed=self.seeds[(key.split, key.index)],
+            split=key.split, params=dict(split.params), limits=self.spec.limits,
+            runs_dir=self.folder, labels=campaign_labels(self.name, key.submission, retry),
+            episode=new_episode_id(), index=key.index)
+        job = EpisodeJob(campaign=self.name, submission=key.submission, retry=retry,
+                         spec=episode, digest=pin.digest, runtime=self.spec.runtime,
+                         archive=self.archives.get(key.submission, []), code=code_version())
         self.pending[submit(job, self.board)] = job
 
     def _check_cluster(self) -> None:
@@ -300,8 +303,6 @@ class Driver:
             return
         if not dead:
             return
-        from orchestrator._results.store import EpisodeKey
-
         for ref, job in list(self.pending.items()):
             started = self.running.get(job.episode)
             node = None if started is None else started.node
@@ -312,14 +313,11 @@ class Driver:
             self.finished.add(job.episode)
             self.metrics.set_running(len(self.running))
             ray.cancel(ref, force=True)
-            key = EpisodeKey(job.submission, job.split, job.index)
-            where = EpisodeWhere(submission=job.submission, split=job.split, index=job.index,
-                                 retry=job.retry, episode=job.episode)
             message = f"NodeDiedError: the node running the episode ({node[:12]}) was lost"
             try:
                 # No cleanup through Ray: the node cannot be reached. Its containers lose
                 # their heartbeat with its workers and are reaped (orchestrator._runtimes.reaper).
-                self._record(job, key, where, None, node, True, message, reach=False)
+                self._record(job, None, node, True, message, reach=False)
             except StoreError:
                 self.metrics.store_error()
                 raise
@@ -336,8 +334,7 @@ class Driver:
             log.warning("the progress board is gone (%s); starting a new one", e)
             self.board = ProgressBoard.remote()
             return
-        for raw in events:
-            ev = Started.model_validate(raw)
+        for ev in events:
             if ev.episode in self.finished:
                 continue
             self.running[ev.episode] = ev
@@ -353,17 +350,12 @@ class Driver:
     def _finish(self, ref: Any) -> None:
         import ray
 
-        from orchestrator._results.store import EpisodeKey
-
         job = self.pending.pop(ref)
         self.running.pop(job.episode, None)
         self.finished.add(job.episode)
         self.metrics.set_running(len(self.running))
         if self.broken is not None:  # the result stays in its folder: rebuild-store finds it
             return
-        key = EpisodeKey(job.submission, job.split, job.index)
-        where = EpisodeWhere(submission=job.submission, split=job.split, index=job.index,
-                             retry=job.retry, episode=job.episode)
         result: EpisodeResult | None = None
         node: str | None = None
         crashed = False
@@ -387,15 +379,16 @@ class Driver:
             crashed = True
             message = f"{type(e).__name__}: " + (str(e).strip().splitlines() or [""])[0][:300]
         try:
-            self._record(job, key, where, result, node, crashed, message)
+            self._record(job, result, node, crashed, message)
         except StoreError:
             self.metrics.store_error()
             raise
 
-    def _record(self, job: Any, key: Any, where: EpisodeWhere, result: EpisodeResult | None,
-                node: str | None, crashed: bool, message: str, *, reach: bool = True) -> None:
+    def _record(self, job: EpisodeJob, result: EpisodeResult | None, node: str | None,
+                crashed: bool, message: str, *, reach: bool = True) -> None:
         from orchestrator._campaign.fanout import cleanup_nodes
 
+        key, where = job.key, job.where
         if result is not None and result.status.failure_kind != "infra":
             t = time.perf_counter()
             new = self.store.commit(self.name, key, result, retry=job.retry, node=node)

@@ -23,14 +23,16 @@ import os
 import socket
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import ray
 
 from orchestrator._campaign.spec import SLOT, CampaignError
-from schemas import CampaignSpec, Limits
+from orchestrator._episode.worker import EpisodeSpec, run_episode
+from orchestrator._results.store import EpisodeKey
+from schemas import CampaignSpec, EpisodeWhere, Started
 
 log = logging.getLogger("eagc.fanout")
 
@@ -59,29 +61,45 @@ def code_version(root: Path | None = None) -> str:
 
 @dataclass(frozen=True)
 class EpisodeJob:
-    """Everything a task needs. Holds the hidden seed: it goes to the worker, never further."""
+    """One campaign episode as its Ray task carries it: the episode itself (``spec``, built
+    once by the driver) and what only a campaign adds around it. Holds the hidden seed (in
+    ``spec``): it goes to the worker, never further.
+
+    ``spec.image`` is what the submission runs (its pinned image ID, or the command of a
+    local campaign); the task swaps in the ID it found on its node and the GPUs Ray gave it.
+    """
 
     campaign: str
     submission: str
-    split: str
-    index: int
     retry: int
-    episode: str
-    track: str
-    image: str
-    digest: str | None
-    seed: int
-    params: Mapping[str, Any]
-    limits: Limits
-    runs_dir: str
+    spec: EpisodeSpec
+    digest: str | None  # the pinned image ID (None: a local campaign's command)
     runtime: str = "docker"
     archive: list[Any] = field(default_factory=list)  # [ObjectRef of the archive bytes]
     code: str = ""  # the driver's code_version(); "" skips the check
 
     @property
-    def labels(self) -> dict[str, str]:
-        return {"campaign": self.campaign, "submission": self.submission,
-                "retry": str(self.retry)}
+    def episode(self) -> str:
+        """The episode's id (a job's spec always names it)."""
+        assert self.spec.episode is not None, "a campaign episode has an id"
+        return self.spec.episode
+
+    @property
+    def key(self) -> EpisodeKey:
+        """The episode's place in the campaign's plan."""
+        assert self.spec.index is not None, "a campaign episode has an index"
+        return EpisodeKey(self.submission, self.spec.split, self.spec.index)
+
+    @property
+    def where(self) -> EpisodeWhere:
+        """The episode's place and attempt, as campaign events name it."""
+        return EpisodeWhere(submission=self.submission, split=self.spec.split,
+                            index=self.key.index, retry=self.retry, episode=self.episode)
+
+
+def campaign_labels(campaign: str, submission: str, retry: int) -> dict[str, str]:
+    """The labels a campaign puts on an episode's container (cleanup finds them by these)."""
+    return {"campaign": campaign, "submission": submission, "retry": str(retry)}
 
 
 @dataclass(frozen=True)
@@ -102,12 +120,12 @@ class ProgressBoard:
     """Workers report here when an episode starts; the driver drains the reports."""
 
     def __init__(self) -> None:
-        self._events: list[dict[str, Any]] = []
+        self._events: list[Started] = []
 
-    def started(self, event: dict[str, Any]) -> None:
+    def started(self, event: Started) -> None:
         self._events.append(event)
 
-    def drain(self) -> list[dict[str, Any]]:
+    def drain(self) -> list[Started]:
         events, self._events = self._events, []
         return events
 
@@ -123,7 +141,7 @@ def _ensure_image(client: Any, job: EpisodeJob) -> str:
     from orchestrator._runtimes.interface import InfraError
 
     if job.digest is None:
-        return job.image
+        return job.spec.image
 
     def present() -> bool:
         try:
@@ -135,7 +153,7 @@ def _ensure_image(client: Any, job: EpisodeJob) -> str:
     if present():
         return job.digest
     if not job.archive:
-        raise InfraError(f"image {job.digest[:19]} ({job.image}) is not loaded on node "
+        raise InfraError(f"image {job.digest[:19]} ({job.spec.image}) is not loaded on node "
                          f"{socket.gethostname()} and the submission has no archive")
     lock = Path(f"/tmp/eagc-image-{job.digest.split(':')[-1][:16]}.lock")
     with lock.open("w") as f:  # one load per node, however many tasks wait for it
@@ -143,7 +161,7 @@ def _ensure_image(client: Any, job: EpisodeJob) -> str:
         if not present():
             client.images.load(ray.get(job.archive[0]))
     if not present():
-        raise InfraError(f"the archive of {job.image} does not hold the pinned image "
+        raise InfraError(f"the archive of {job.spec.image} does not hold the pinned image "
                          f"{job.digest[:19]}")
     return job.digest
 
@@ -168,14 +186,11 @@ EPISODES_PER_WORKER = 50
 @ray.remote(max_retries=0, max_calls=EPISODES_PER_WORKER)
 def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
     """Runs one episode on whatever node Ray chose; never raises for agent faults."""
-    from orchestrator._episode.worker import EpisodeSpec, run_episode
     from orchestrator._runtimes import reaper as _reaper
 
     node, host, pid = _node(), socket.gethostname(), os.getpid()
     if board is not None:
-        board.started.remote({"submission": job.submission, "split": job.split,
-                              "index": job.index, "retry": job.retry, "episode": job.episode,
-                              "node": node, "host": host, "pid": pid, "at": time.time()})
+        board.started.remote(Started(**job.where.model_dump(), node=node, host=host, pid=pid))
     here = code_version()
     if job.code and job.code != here:
         return TaskReport(node, host, pid, error=(
@@ -187,14 +202,13 @@ def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
         _reaper.reap_here()
     try:
         runtime = _runtime(job)
-        image = job.image if job.runtime == "local" else _ensure_image(runtime.client, job)
-        limits = job.limits
+        spec = job.spec
+        if job.runtime != "local":
+            spec = replace(spec, image=_ensure_image(runtime.client, job))
         gpu_ids = ray.get_gpu_ids()
-        if limits.gpus and gpu_ids:  # the devices Ray assigned to this task
-            limits = limits.model_copy(update={"gpus": tuple(str(g) for g in gpu_ids)})
-        spec = EpisodeSpec(track=job.track, image=image, seed=job.seed, split=job.split,
-                           params=dict(job.params), limits=limits, runs_dir=Path(job.runs_dir),
-                           labels=job.labels, episode=job.episode, index=job.index)
+        if spec.limits.gpus and gpu_ids:  # the devices Ray assigned to this task
+            gpus = tuple(str(g) for g in gpu_ids)
+            spec = replace(spec, limits=spec.limits.model_copy(update={"gpus": gpus}))
         result = run_episode(spec, runtime)
     except Exception as e:  # noqa: BLE001 - an infrastructure failure, retried by the driver
         return TaskReport(node, host, pid, error=f"{type(e).__name__}: {e}",
@@ -206,10 +220,10 @@ def episode_task(job: EpisodeJob, board: Any) -> TaskReport:
 def submit(job: EpisodeJob, board: Any) -> Any:
     """Schedules one episode task with its resources; returns its ObjectRef."""
     return episode_task.options(
-        num_cpus=job.limits.cpus,
-        num_gpus=len(job.limits.gpus),
+        num_cpus=job.spec.limits.cpus,
+        num_gpus=len(job.spec.limits.gpus),
         resources={SLOT: 1},
-        name=f"eagc:{job.campaign}:{job.submission}/{job.split}/{job.index}#{job.retry}",
+        name=f"eagc:{job.campaign}:{job.key}#{job.retry}",
     ).remote(job, board)
 
 

@@ -12,8 +12,9 @@ from test_campaign_helpers import build_campaign_images
 
 from orchestrator._campaign.fanout import EpisodeJob, _ensure_image, pin_images
 from orchestrator._campaign.spec import CampaignError, load_campaign, plan
+from orchestrator._episode.worker import EpisodeSpec
 from orchestrator._runtimes.interface import InfraError
-from schemas import Limits, SchemaError
+from schemas import SchemaError
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -151,9 +152,10 @@ def test_node_loads_the_archive_from_the_object_store(
         ref = ray.put(archive.read_bytes())
 
         def job(d: str) -> EpisodeJob:
-            return EpisodeJob(campaign="c", submission="t", split="standard", index=0, retry=0,
-                              episode="ep0", track="sanity", image=tag, digest=d, seed=1,
-                              params={}, limits=Limits(), runs_dir="/tmp", archive=[ref])
+            spec = EpisodeSpec(track="sanity", image=tag, seed=1, runs_dir=Path("/tmp"),
+                               episode="ep0", index=0)
+            return EpisodeJob(campaign="c", submission="t", retry=0, spec=spec, digest=d,
+                              archive=[ref])
 
         assert _ensure_image(docker_engine, job(digest)) == digest
         assert docker_engine.images.get(digest).id == digest

@@ -8,6 +8,15 @@ regenerates them; a test fails on drift).
 from schemas._campaign import CampaignSpec, Limits, Split, Submission
 from schemas._contract import CONTAINER, ContainerContract, unix_endpoint
 from schemas._demo import DEMO_VERSION, Annotation, ArraySpec, DemoManifest, FrameSpec, KeyStage
+from schemas._disclosure import (
+    DISCLOSURE_VERSION,
+    ComputeUse,
+    DataSource,
+    Dependency,
+    OpenSourceStatement,
+    PretrainedModel,
+    ResourceDisclosure,
+)
 from schemas._errors import EagcError, SchemaError
 from schemas._events import (
     CampaignEvent,
@@ -71,6 +80,7 @@ from schemas._result import (
 __all__ = [
     "CONTAINER",
     "DEMO_VERSION",
+    "DISCLOSURE_VERSION",
     "PROTOCOL_VERSION",
     "TASK_MODEL_VERSION",
     "WORLD_MODEL_VERSION",
@@ -82,11 +92,14 @@ __all__ = [
     "CampaignEvent",
     "CampaignSpec",
     "Committed",
+    "ComputeUse",
     "Connection",
     "ContainerContract",
     "ContainerExit",
     "ContainerState",
+    "DataSource",
     "DemoManifest",
+    "Dependency",
     "DoorState",
     "EagcError",
     "EndReason",
@@ -110,10 +123,13 @@ __all__ = [
     "NamedItem",
     "ObjectEntry",
     "ObservationReply",
+    "OpenSourceStatement",
     "Precondition",
+    "PretrainedModel",
     "Reply",
     "Request",
     "Reset",
+    "ResourceDisclosure",
     "Retried",
     "Room",
     "SchemaError",

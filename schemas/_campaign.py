@@ -57,6 +57,10 @@ class Submission(_Spec):
         default=None, description="Pinned image ID (sha256:…); checked before the campaign."
     )
     archive: Path | None = Field(default=None, description="A `docker save` archive to load.")
+    disclosure: Path | None = Field(
+        default=None,
+        description="The team's resource disclosure (YAML or JSON, `ResourceDisclosure`; "
+        "relative to the campaign file): kept beside the pinned image, shown to organizers.")
 
 
 class CampaignSpec(_Spec):

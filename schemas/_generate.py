@@ -9,6 +9,7 @@ from pydantic import BaseModel, TypeAdapter
 
 from schemas._campaign import CampaignSpec
 from schemas._demo import DemoManifest
+from schemas._disclosure import ResourceDisclosure
 from schemas._files import LogRecord, TaskModel, WorldModel
 from schemas._protocol import Reply, Request
 from schemas._result import EpisodeResult, ScoreCard
@@ -23,6 +24,7 @@ TARGETS: dict[str, object] = {
     "demo_manifest": DemoManifest,
     "episode_log_record": LogRecord,
     "campaign": CampaignSpec,
+    "resource_disclosure": ResourceDisclosure,
     "episode_result": EpisodeResult,
     "score_card": ScoreCard,
 }

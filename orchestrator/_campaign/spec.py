@@ -97,18 +97,20 @@ def load_campaign(path: Path | str) -> CampaignSpec:
     if not isinstance(doc, dict):
         raise SchemaError(str(path), ["(top level): a campaign file is a mapping (name: …)"])
     spec = parse_json(json.dumps(doc, default=str), CampaignSpec, source=str(path))
-    subs = tuple(
-        s.model_copy(update={"archive": (path.parent / s.archive).resolve()})
-        if s.archive is not None and not s.archive.is_absolute() else s
-        for s in spec.submissions
-    )
+    def beside(p: Path | None) -> Path | None:
+        return (path.parent / p).resolve() if p is not None and not p.is_absolute() else p
+
+    subs = tuple(s.model_copy(update={"archive": beside(s.archive),
+                                      "disclosure": beside(s.disclosure)})
+                 for s in spec.submissions)
     spec = spec.model_copy(update={"submissions": subs})
     check_campaign(spec, source=str(path))
     return spec
 
 
 def check_campaign(spec: CampaignSpec, *, source: str) -> None:
-    """What the schema alone cannot check: the track, split names, archives, path lengths."""
+    """What the schema alone cannot check: the track, split names, archives, disclosures
+    (every problem of a named one), path lengths."""
     from plugins import PluginError, load_track
 
     problems: list[str] = []
@@ -126,6 +128,11 @@ def check_campaign(spec: CampaignSpec, *, source: str) -> None:
             problems.append(f"submissions.{i}.archive: no such file {sub.archive}")
         if sub.digest is not None and not sub.digest.startswith("sha256:"):
             problems.append(f"submissions.{i}.digest: an image ID is 'sha256:<64 hex>'")
+        if sub.disclosure is not None:
+            from orchestrator._campaign.disclosure import disclosure_problems
+
+            problems += [f"submissions.{i}.disclosure: {sub.disclosure.name}: {p}"
+                         for p in disclosure_problems(sub.disclosure)]
     if spec.runtime == "local" and spec.phase != "local":
         problems.append("runtime: 'local' runs agents without the sandbox: local phase only")
     if len(str(campaign_dir(spec))) > MAX_RUNS_DIR:

@@ -1,11 +1,13 @@
-"""``eagc check-files DIR --track T [--stage S]``: a team's files, checked offline as the host
-checks them.
+"""``eagc check-files DIR --track T [--stage S] [--disclosure FILE]``: a team's files, checked
+offline as the host checks them, and its resource disclosure as a campaign checks it.
 
 The folder is read as the host reads ``/output`` (``orchestrator._episode.collect``: top-level
 regular files only, nothing followed, the default size caps) and checked by the track's own
 ``TrackPlugin.verify_files``, the code the host runs. Each file gets every problem, one line
 per field path (``schemas._io.problem_lines``: the keys nothing grades first, then what fails),
-then a valid example of each object that failed and where its JSON Schema is.
+then a valid example of each object that failed and where its JSON Schema is. A resource
+disclosure (``--disclosure``) gets the same lines, from the check ``load_campaign`` runs
+(``orchestrator._campaign.disclosure``).
 
 Mount with ``app.command("check-files", epilog=CHECK_FILES_CODES)(check_files_cmd)``.
 """
@@ -25,8 +27,9 @@ from orchestrator._errors import UsageError
 from orchestrator.cli.common import ExitCode, _suggest, check_track
 
 CHECK_FILES_CODES = ("Exit codes: 0 every file validates (keys nothing grades are listed, "
-                     "not errors); 1 a file does not validate or a required one is missing; "
-                     "2 usage error (no such folder, track or stage).")
+                     "not errors); 1 a file (or the disclosure) does not validate or a "
+                     "required one is missing; 2 usage error (no such folder, file, track "
+                     "or stage).")
 
 out = Console(highlight=False, soft_wrap=True, markup=False)
 
@@ -145,15 +148,67 @@ def check_folder(folder: Path, track: str, stage: str | None = None) -> tuple[bo
     return ok, lines
 
 
+def check_disclosure(path: Path) -> tuple[bool, list[str]]:
+    """Checks a resource disclosure file (``schemas.ResourceDisclosure``, YAML or JSON) as
+    a campaign checks it; returns (ok, report lines)."""
+    from orchestrator._campaign.disclosure import KeptDisclosure as Kept
+    from orchestrator._campaign.disclosure import (
+        disclosure_problems,
+        read_disclosure,
+        summary_lines,
+    )
+    from schemas import ResourceDisclosure
+
+    if not path.is_file():
+        raise UsageError(f"{path} is not a file: give your resource disclosure "
+                         "(YAML or JSON)")
+    limit = 80
+    wrap = lambda text, indent="": textwrap.wrap(  # noqa: E731
+        text, limit, initial_indent=indent, subsequent_indent=indent + "    ",
+        break_long_words=False, break_on_hyphens=False)
+    problems = disclosure_problems(path)
+    lines = wrap(f"resource disclosure {path}, checked as a campaign checks it:")
+    if not problems:
+        kept = Kept(team="-", status="ok", source=str(path), disclosure=read_disclosure(path))
+        lines.append(f"{path.name}: ok")
+        for line in summary_lines(kept)[1:]:
+            lines += wrap(line, "  ")
+        return True, lines
+    lines.append(f"{path.name}: FAILS ({len(problems)} line{'s' * (len(problems) > 1)})")
+    for line in problems:
+        lines += wrap(line, "  ")
+    example = example_of(ResourceDisclosure)
+    lines += wrap(f"a valid ResourceDisclosure: {json.dumps(example, separators=(', ', ': '))}",
+                  "  ")
+    lines += wrap(f"its schema: {schema_of(ResourceDisclosure, ResourceDisclosure)}", "  ")
+    return False, lines
+
+
 def check_files_cmd(
-    folder: Annotated[Path, typer.Argument(help="The folder your agent writes (its /output).")],
-    track: Annotated[str, typer.Option(help="The track whose files these are.")],
+    folder: Annotated[Path | None, typer.Argument(
+        help="The folder your agent writes (its /output).")] = None,
+    track: Annotated[str | None, typer.Option(
+        help="The track whose files these are (needed with FOLDER).")] = None,
     stage: Annotated[str | None, typer.Option(
         help="Check it as the snapshot at this stage's end (missing files are fine).")
                      ] = None,
+    disclosure: Annotated[Path | None, typer.Option(
+        help="Check this resource disclosure file too (YAML or JSON), as a campaign "
+        "that names it in `disclosure:` does.")] = None,
 ) -> None:
     """Check your agent's files offline, exactly as the host checks them: every problem by
     field path, a valid example of what failed and its JSON Schema."""
-    ok, lines = check_folder(folder, track, stage)
+    if folder is None and disclosure is None:
+        raise UsageError("give the folder your agent writes (with --track), or "
+                         "--disclosure FILE, or both")
+    if folder is not None and track is None:
+        raise UsageError("--track: which track's files are in "
+                         f"{folder}? (e.g. --track track1)")
+    ok, lines = True, []
+    if folder is not None and track is not None:
+        ok, lines = check_folder(folder, track, stage)
+    if disclosure is not None:
+        good, more = check_disclosure(disclosure)
+        ok, lines = ok and good, [*lines, *([""] if lines else []), *more]
     out.print("\n".join(lines))
     raise typer.Exit(ExitCode.OK if ok else ExitCode.ERROR)

@@ -8,7 +8,9 @@ parameters, index and limits, on the campaign's runtime, and sets each new score
 the official one. The report (``TeamAudit``) is organizer-only: it names episode ids and
 what the hidden scenario held. ``write_report`` puts it, as text and JSON, in
 ``<output>/<campaign>/audit/<team>.txt|.json``, and the reruns' episode folders in
-``<output>/<campaign>/audit/<team>/reruns/``.
+``<output>/<campaign>/audit/<team>/reruns/``. The report shows the team's resource
+disclosure as the campaign keeps it (``orchestrator._campaign.disclosure``); a missing one
+is shown as missing and does not make the team unclean.
 
 A team is *clean* when every replay matches its log and no check raised a flag; warnings
 and notes are worth reading but do not make it unclean. docs/audit.md says what each
@@ -26,6 +28,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, computed_field
 
+from orchestrator._campaign.disclosure import KeptDisclosure, kept_disclosures, summary_lines
 from orchestrator._campaign.spec import campaign_dir, store_path
 from orchestrator._episode.audit import EpisodeAudit, EpisodeAuditError, audit_episode
 from orchestrator._errors import UsageError
@@ -80,6 +83,9 @@ class TeamAudit(BaseModel):
     image: str
     episodes: tuple[AuditedEpisode, ...]
     reruns: tuple[Rerun, ...] = ()
+    disclosure: KeptDisclosure | None = None
+    """The team's resource disclosure as the campaign keeps it (``status`` says when it is
+    missing or invalid: shown, never a flag)."""
 
     @computed_field  # type: ignore[prop-decorator]
     @property
@@ -203,7 +209,8 @@ def audit_team(spec: CampaignSpec, team: str, *, rerun: int = 0, runtime: Any = 
                                     audit_folder(spec) / team / "reruns", runtime=runtime))
     return TeamAudit(campaign=spec.name, track=spec.track, team=team,
                      image=episodes[0][2].image, episodes=tuple(audited),
-                     reruns=tuple(reruns))
+                     reruns=tuple(reruns),
+                     disclosure=kept_disclosures(spec, campaign_dir(spec)).get(team))
 
 
 # ---------------------------------------------------------------------------- the report
@@ -217,6 +224,10 @@ def report_lines(audit: TeamAudit, limit: int = 80) -> list[str]:
                f"FLAGGED: {audit.flags} flag(s), {audit.replay_failures} episode(s) whose "
                "replay does not match or could not run")
     out += wrapped(f"verdict: {verdict}", limit)
+    if audit.disclosure is not None:
+        out += ["", "Resource disclosure (paper Table VIII)"]
+        for line in summary_lines(audit.disclosure):
+            out += _item(line, limit)
     rows = audit.episodes
 
     def n(e: AuditedEpisode, severity: str) -> str:

@@ -228,8 +228,9 @@ def summary_lines(kept: KeptDisclosure) -> list[str]:
                                                           d.open_source.license) if x)
     else:
         released = "not released"
-    where = "kept with the campaign" if kept.kept else f"read from {kept.source}"
-    return [f"file: {kept.source} ({where}; {kept.sha256})",
+    where = ("kept beside the pinned image" if kept.kept
+             else "read now: the campaign keeps no copy yet")
+    return [f"file: {kept.source} ({where}; {(kept.sha256 or '')[:19]})",
             f"data: {listed(data)}", f"pretrained models: {listed(models)}",
             f"compute: {compute}", f"dependencies: {listed(deps)}",
             f"open source: {released}"]

@@ -1,6 +1,7 @@
 """Writes the static site: an index, a page per team and a page per episode.
 
-    <out>/index.html             the leaderboard (or, with a team, that team's page)
+    <out>/index.html             the leaderboard (or, with a team, that team's page); for
+                                 organizers, each team's resource disclosure too
     <out>/teams/<team>.html      a team's episodes, each linked
     <out>/episodes/<id>.html     one episode (``write_episode_site``: <out>/index.html)
 
@@ -70,6 +71,26 @@ def _episode_row(result: EpisodeResult, index: int, page: str | None) -> dict[st
             "page": page, "stage": (result.stages_reached or ["none"])[-1]}
 
 
+#: The columns of the organizer's disclosure table, as ``summary_lines`` labels them.
+DISCLOSURE_COLUMNS = ("data", "pretrained models", "compute", "dependencies", "open source")
+
+
+def disclosure_rows(spec: CampaignSpec) -> list[dict[str, Any]]:
+    """Each team's resource disclosure as the campaign keeps it, for the organizer's
+    index: its status (``ok``, ``missing``, ``invalid``), the file, and one cell per
+    ``DISCLOSURE_COLUMNS`` (or the problems)."""
+    from orchestrator._campaign.disclosure import kept_disclosures, summary_lines
+    from orchestrator._campaign.spec import campaign_dir
+
+    rows = []
+    for team, kept in kept_disclosures(spec, campaign_dir(spec)).items():
+        parts = dict(line.split(": ", 1) for line in summary_lines(kept))
+        rows.append({"team": team, "status": kept.status, "file": parts.get("file", ""),
+                     "cells": [parts.get(c, "") for c in DISCLOSURE_COLUMNS],
+                     "problems": list(kept.problems)})
+    return rows
+
+
 def write_campaign_site(spec: CampaignSpec, store: Any, out: Path, *, team: str | None = None,
                         organizer: bool = False,
                         say: Callable[[str], None] = lambda _m: None) -> list[Path]:
@@ -127,7 +148,9 @@ def write_campaign_site(spec: CampaignSpec, store: Any, out: Path, *, team: str 
                  "episodes": f"{r.episodes}/{r.planned}"} for r in board.rows]
         html = env.get_template("index.html").render(
             spec=spec, board=board, titles=[c.title for c in cols], rows=rows,
-            legend=LEGEND, organizer=organizer, failures=board.failures)
+            legend=LEGEND, organizer=organizer, failures=board.failures,
+            disclosures=disclosure_rows(spec) if organizer else [],
+            disclosure_columns=DISCLOSURE_COLUMNS)
         written.append(_write(out / "index.html", html))
     return written
 

@@ -10,8 +10,11 @@ embedded Ray, then prints its leaderboard and where the results are.
 Results go where the file says (``runs/demo``): a second ``eagc demo`` finds them in the
 store and runs nothing again; ``eagc leaderboard``/``eagc status`` on the file show them.
 With ``--output DIR``, or without a Docker engine (the agents then run as local processes,
-as campaign ``<name>-local``), the campaign actually run differs from the file: the demo
-writes it beside its results (``DIR/demo_<track>.yaml``) and names that file instead.
+as campaign ``<name>-local``, so that their results never pass for the sandbox's), the
+campaign actually run differs from the file: the demo writes it beside its results
+(``DIR/demo_<track>.yaml``, ``demo_<track>_local.yaml``) and names that file instead. Seeds
+derive from the campaign's name, so a local demo plays other episodes than a Docker demo,
+and its scores and ranks differ: the demo says so (``LOCAL_NOTE``).
 """
 
 from __future__ import annotations
@@ -26,6 +29,10 @@ from orchestrator._errors import UsageError
 
 REPO = Path(__file__).resolve().parents[2]
 DEMOS = REPO / "examples" / "campaigns"
+#: What the demo says when its agents run as local processes.
+LOCAL_NOTE = ("The example agents run as local processes (no sandbox), as campaigns "
+              "<demo>-local beside the Docker demo's. Seeds derive from a campaign's name, "
+              "so these episodes, scores and ranks differ from a Docker run's.")
 
 
 def demo_files(tracks: list[str] | None = None) -> dict[str, Path]:
@@ -156,8 +163,9 @@ def run_demo(*, runtime: str = "auto", tracks: list[str] | None = None,
 
         runtime = "docker" if docker_answers() else "local"
         if runtime == "local":
-            console.print("[yellow]No Docker engine answers: the example agents run as local "
-                          "processes (no sandbox).[/]")
+            console.print("[yellow]No Docker engine answers.[/]")
+    if runtime == "local":
+        console.print(f"[yellow]{LOCAL_NOTE}[/]", highlight=False)
     workers = workers or max(1, min(2, os.cpu_count() or 1))
     code = ExitCode.OK
     for track, path in files.items():

@@ -57,6 +57,11 @@ notes = Console(stderr=True)
 
 #: Where ``eagc preview`` writes when ``--out`` is not given.
 PREVIEWS = Path("runs") / "previews"
+
+
+def preview_name(track: str, split: str, seed: int) -> str:
+    """A preview's file name, one scheme for every track: ``<track>-<split>-seed<N>.png``."""
+    return f"{track}-{split}-seed{seed}.png"
 RUN_EPISODE_CODES = ("Exit codes: 0 the episode completed; 3 infrastructure failure (not "
                      "the agent's fault: run it again); 4 the agent failed (crash, timeout, "
                      "OOM, protocol, bad files, no start); 1 an error, on one line; 2 usage "
@@ -273,18 +278,28 @@ def preview(
     track: Annotated[str, typer.Option(help="The track.")] = "track1",
     out: Annotated[Path, typer.Option(help="Folder for the PNG.")] = PREVIEWS,
 ) -> None:
-    """A scenario preview as PNG, in runs/previews/ unless --out says where.
+    """A scenario preview as PNG (<track>-<split>-seed<N>.png), in runs/previews/ unless
+    --out says where.
 
     Track 1: the top-down map with the task, beside the robot's first camera frame.
     """
+    import shutil
+    import tempfile
+
     from plugins import PluginError
 
     plugin = check_track(track)
     check_split(plugin, split)
+    out.mkdir(parents=True, exist_ok=True)
+    # Each track names its own file: drawn apart, then named by the one scheme.
+    drawing = Path(tempfile.mkdtemp(prefix=".preview-", dir=out))
     try:
-        path = plugin.preview(seed=seed, split=split, out=out)
+        drawn = plugin.preview(seed=seed, split=split, out=drawing)
+        path = drawn.replace(out / preview_name(track, split, seed))
     except PluginError as e:  # the track draws none
         raise UsageError(str(e)) from None
+    finally:
+        shutil.rmtree(drawing, ignore_errors=True)
     console.print(f"[green]✓[/] {path}", highlight=False)
 
 

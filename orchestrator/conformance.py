@@ -26,6 +26,9 @@ read-only root and input, capped ``/tmp``; no network; nothing of the host's env
 pids limit that holds a fork bomb; an OOM kill reported as such; detached daemons gone with
 the agent; ``cleanup`` finds leftovers by label.
 
+The probe's findings (``probe-result.json``) are read as ``ProbeFindings``: the probe is a
+standard-library program, its report is ours, and a check reads it by attribute.
+
 ``probe_build_context(folder)`` writes a Docker build context for the probe image.
 Requires pytest only to run.
 """
@@ -44,6 +47,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
+from pydantic import BaseModel, ConfigDict, Field
+
 from orchestrator._episode.collect import mount_output, unmount_output
 from orchestrator._runtimes.interface import (
     AgentHandle,
@@ -55,6 +60,9 @@ from schemas import CONTAINER, ContainerExit, Limits, unix_endpoint
 
 __all__ = [
     "PROBE_SCRIPT",
+    "FilesystemFindings",
+    "ProbeFindings",
+    "ProbeReport",
     "ProbeRun",
     "RuntimeConformance",
     "SandboxConformance",
@@ -68,6 +76,63 @@ _RESULT = "probe-result.json"
 #: sets for itself (and ``LC_*``).
 _IMAGE_ENV = {"PATH", "HOSTNAME", "HOME", "LANG", "TERM", "PYTHONUNBUFFERED",
               "PYTHONDONTWRITEBYTECODE", "PYTHONPATH", "VIRTUAL_ENV", "container"}
+
+
+class _Found(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="ignore", populate_by_name=True)
+
+
+class ProcStatus(_Found):
+    """The probe's lines of ``/proc/self/status``."""
+
+    cap_eff: str = Field(alias="CapEff", description="Effective capabilities (hex mask).")
+    cap_prm: str = Field(alias="CapPrm", description="Permitted capabilities (hex mask).")
+    no_new_privs: str = Field(alias="NoNewPrivs", description="'1': no-new-privileges is on.")
+    seccomp: str = Field(alias="Seccomp", description="'2': a seccomp filter is on.")
+
+    @property
+    def capabilities(self) -> tuple[int, int]:
+        """The effective and permitted capability masks."""
+        return int(self.cap_eff, 16), int(self.cap_prm, 16)
+
+
+class ProbeReport(_Found):
+    """What the probe's ``report`` task saw: who it runs as, its environment, its inputs
+    and its network interfaces."""
+
+    uid: int
+    euid: int
+    gid: int
+    status: ProcStatus
+    env: dict[str, str]
+    input_listing: list[str] = Field(description="The input folder's names.")
+    interfaces: list[str] = Field(description="The names under /sys/class/net.")
+    mounts: str = Field(description="/proc/self/mounts as the probe read it.")
+
+
+class FilesystemFindings(_Found):
+    """What each write of the ``filesystem`` task did: ``ok`` or ``failed: <why>``."""
+
+    root: str
+    etc: str
+    input: str
+    tmp_small: str = Field(description="A small file in /tmp.")
+    tmp_past_cap: str = Field(description="A file in /tmp past the tmp_mb cap.")
+    output: str
+
+
+class ProbeFindings(_Found):
+    """What the probe wrote to its output folder (``probe-result.json``); all empty when it
+    wrote nothing."""
+
+    done: list[str] = Field(default_factory=list, description="The tasks done, in order.")
+    report: ProbeReport | None = None
+    filesystem: FilesystemFindings | None = None
+    network: dict[str, str | None] | None = Field(
+        default=None, description="Each connection tried: None (nothing to try), 'ok' or "
+        "'failed: <why>'.")
+    forks: int | None = Field(default=None, description="Children the fork bomb got.")
+    memory_mb: int | None = Field(default=None, description="MiB allocated and touched.")
 
 
 def probe_build_context(folder: Path, base_image: str = "eagc/agent-base:latest") -> Path:
@@ -96,10 +161,12 @@ class ProbeRun:
     def output(self) -> Path:
         return self.launch.output_dir
 
-    def found(self) -> dict[str, Any]:
+    def found(self) -> ProbeFindings:
         """What the probe wrote (empty if it wrote nothing)."""
         path = self.output / _RESULT
-        return json.loads(path.read_text()) if path.exists() else {}
+        if not path.exists():
+            return ProbeFindings()
+        return ProbeFindings.model_validate_json(path.read_bytes())
 
     def heartbeat(self, name: str) -> float | None:
         """When the named child last touched its heartbeat file (None: never)."""
@@ -160,7 +227,7 @@ class RuntimeConformance:
 
     def run_to_end(
         self, runtime: AgentRuntime, image: str, tasks: list[dict[str, Any]]
-    ) -> tuple[ContainerExit, dict[str, Any]]:
+    ) -> tuple[ContainerExit, ProbeFindings]:
         """Runs the probe until it exits by itself; returns how it ended and what it found."""
         with self.probe(runtime, image, tasks) as run:
             assert run.handle.wait(self.timeout_s), (
@@ -171,7 +238,7 @@ class RuntimeConformance:
     def await_done(self, run: ProbeRun, tasks: list[str]) -> None:
         """Waits until the probe has done ``tasks`` (while it keeps running)."""
         deadline = time.monotonic() + self.timeout_s
-        while run.found().get("done") != tasks:
+        while run.found().done != tasks:
             assert not run.handle.wait(0.1), f"the probe exited early: {run.handle.stop()}"
             assert time.monotonic() < deadline, f"the probe did not do {tasks}: {run.found()}"
 
@@ -219,7 +286,7 @@ class RuntimeConformance:
     # --------------------------------------------------------------------- the checks
     def test_exit_code_comes_back(self, runtime: AgentRuntime, probe_image: str) -> None:
         exit_, found = self.run_to_end(runtime, probe_image, [{"task": "exit", "code": 3}])
-        assert found.get("done") == ["exit"], f"the probe never ran its tasks: {exit_}"
+        assert found.done == ["exit"], f"the probe never ran its tasks: {exit_}"
         assert exit_.exit_code == 3, exit_
         assert not exit_.killed_by_host and not exit_.oom_killed, exit_
 
@@ -256,12 +323,12 @@ class RuntimeConformance:
             assert run.handle.wait(self.timeout_s)
             found = run.found()  # read from the host's folder: the agent wrote EAGC_OUTPUT
             episode = run.launch.episode
-        assert found, "the probe wrote nothing to its output folder"
-        env = found["report"]["env"]
+        assert found.report is not None, "the probe wrote no report to its output folder"
+        env = found.report.env
         assert env[CONTAINER.env_episode] == episode
         assert env[CONTAINER.env_endpoint].startswith(unix_endpoint(""))
         assert env[CONTAINER.env_endpoint].endswith(f"/{CONTAINER.socket_name}")
-        assert "probe.json" in found["report"]["input_listing"]
+        assert "probe.json" in found.report.input_listing
         for key in (CONTAINER.env_output, CONTAINER.env_input):
             assert env.get(key), f"{key} is not set"
 
@@ -279,7 +346,7 @@ class RuntimeConformance:
             [{"task": "memory", "mb": self.limits.memory_mb * 8}, {"task": "exit", "code": 0}],
         )
         assert exit_.exit_code != 0, (
-            f"the probe allocated {found.get('memory_mb')} MiB under a "
+            f"the probe allocated {found.memory_mb} MiB under a "
             f"{self.limits.memory_mb} MiB limit and exited cleanly")
 
     def test_missing_image_is_the_agents_fault(self, runtime: AgentRuntime) -> None:
@@ -301,28 +368,30 @@ class SandboxConformance(RuntimeConformance):
 
     def test_identity_and_privileges(self, runtime: AgentRuntime, probe_image: str) -> None:
         _, found = self.run_to_end(runtime, probe_image, [{"task": "report"}])
-        rep = found["report"]
-        assert rep["uid"] != 0 and rep["euid"] != 0 and rep["gid"] != 0, rep
-        status = rep["status"]
-        assert int(status["CapEff"], 16) == 0, f"capabilities left: {status}"
-        assert int(status["CapPrm"], 16) == 0, f"capabilities left: {status}"
-        assert status["NoNewPrivs"] == "1", status
-        assert status["Seccomp"] == "2", f"no seccomp filter: {status}"
+        rep = found.report
+        assert rep is not None, f"the probe wrote no report: {found}"
+        assert rep.uid != 0 and rep.euid != 0 and rep.gid != 0, rep
+        status = rep.status
+        assert status.capabilities == (0, 0), f"capabilities left: {status}"
+        assert status.no_new_privs == "1", status
+        assert status.seccomp == "2", f"no seccomp filter: {status}"
 
     def test_filesystem(self, runtime: AgentRuntime, probe_image: str) -> None:
         _, found = self.run_to_end(
             runtime, probe_image, [{"task": "filesystem", "tmp_mb": self.limits.tmp_mb}])
-        fs = found["filesystem"]
-        for place in ("root", "etc", "input"):
-            assert fs[place].startswith("failed"), f"the agent could write {place}: {fs}"
-        assert fs["tmp_small"] == "ok" and fs["output"] == "ok", fs
-        assert fs["tmp_past_cap"].startswith("failed"), f"/tmp is not capped: {fs}"
+        fs = found.filesystem
+        assert fs is not None, f"the probe wrote no filesystem findings: {found}"
+        for place, result in (("root", fs.root), ("etc", fs.etc), ("input", fs.input)):
+            assert result.startswith("failed"), f"the agent could write {place}: {fs}"
+        assert fs.tmp_small == "ok" and fs.output == "ok", fs
+        assert fs.tmp_past_cap.startswith("failed"), f"/tmp is not capped: {fs}"
 
     def test_no_network(self, runtime: AgentRuntime, probe_image: str) -> None:
         _, found = self.run_to_end(runtime, probe_image,
                                    [{"task": "report"}, {"task": "network"}])
-        assert found["report"]["interfaces"] in ([], ["lo"]), found["report"]["interfaces"]
-        for target, result in found["network"].items():
+        assert found.report is not None and found.network is not None, found
+        assert found.report.interfaces in ([], ["lo"]), found.report.interfaces
+        for target, result in found.network.items():
             assert result is None or result.startswith("failed"), (
                 f"{target} reached from the sandbox: {result}")
 
@@ -332,11 +401,12 @@ class SandboxConformance(RuntimeConformance):
         try:
             with self.probe(runtime, probe_image, [{"task": "report"}]) as run:
                 assert run.handle.wait(self.timeout_s)
-                rep = run.found()["report"]
+                rep = run.found().report
                 host_root = str(run.output.parent)
         finally:
             value = os.environ.pop(canary)
-        env = rep["env"]
+        assert rep is not None, "the probe wrote no report"
+        env = rep.env
         contract = {CONTAINER.env_endpoint, CONTAINER.env_episode, CONTAINER.env_output,
                     CONTAINER.env_input}
         assert canary not in env
@@ -346,15 +416,15 @@ class SandboxConformance(RuntimeConformance):
         assert env[CONTAINER.env_endpoint] == unix_endpoint(CONTAINER.socket_path)
         assert env[CONTAINER.env_output] == CONTAINER.output_dir
         assert env[CONTAINER.env_input] == CONTAINER.input_dir
-        assert value not in json.dumps(rep)
+        assert value not in rep.model_dump_json()
         assert host_root not in json.dumps(env), "a host path in the agent's environment"
 
     def test_pids_limit_holds_a_fork_bomb(self, runtime: AgentRuntime, probe_image: str) -> None:
         exit_, found = self.run_to_end(
             runtime, probe_image, [{"task": "forks", "count": self.limits.pids * 4}])
-        assert found.get("forks") is not None, f"the probe died forking: {exit_}"
-        assert found["forks"] < self.limits.pids, (
-            f"{found['forks']} processes under a pids limit of {self.limits.pids}")
+        assert found.forks is not None, f"the probe died forking: {exit_}"
+        assert found.forks < self.limits.pids, (
+            f"{found.forks} processes under a pids limit of {self.limits.pids}")
 
     def test_oom_kill_is_reported(self, runtime: AgentRuntime, probe_image: str) -> None:
         exit_, _ = self.run_to_end(

@@ -24,12 +24,11 @@ import math
 from typing import Any
 
 import numpy as np
-from model import Thing
 from planner import MapPlanner
 from priors import Priors
-from skills import DoorOpener, door_normal, face, near
 
 from simhost.agent import TimeStep
+from simhost.skills import DoorOpener, Thing, door_normal, face, near
 
 CLOSE = 2.3
 """Within this distance, facing it, a piece of furniture has been looked at closely."""

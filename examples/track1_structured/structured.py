@@ -31,10 +31,9 @@ from collections import Counter
 from typing import Any
 
 from lookahead import LookaheadPlanner
-from model import AFFORDANCES, Thing, WorldModel
-from skills import face, reach_radius
 
 from simhost.agent import TimeStep
+from simhost.skills import AFFORDANCES, Thing, WorldModel, face, reach_radius
 
 NOISE = (0.02, 0.03)
 """Position noise of a detection, a + b × distance (m): the official splits' sensor."""

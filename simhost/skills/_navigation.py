@@ -1,5 +1,6 @@
-"""Skills of the heuristic planner: go somewhere (opening closed doors on the way), open a
-door, reach a thing to act on it. Each skill returns the next action, or a verdict.
+"""Navigation on the occupancy grid: go somewhere (opening closed doors on the way), open a
+door, face a thing. Each returns the next action, or a verdict (one step at a time: the
+blocking skills of ``_skills.py`` and the Track 1 baselines drive them).
 """
 
 from __future__ import annotations
@@ -9,8 +10,9 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from mapping import Grid, steer
-from model import SIZES, Thing, WorldModel
+
+from simhost.skills._mapping import Grid, steer
+from simhost.skills._model import SIZES, Thing, WorldModel
 
 Pose = tuple[float, float, float]
 Action = dict[str, Any]

@@ -1,4 +1,4 @@
-"""The heuristic planner's world model: rooms, doors, connectivity, containers, objects, tools.
+"""The agent's world model: rooms, doors, connectivity, containers, objects, tools.
 
 Everything comes from observations: a detection's world position is the robot's odometry
 pose plus its relative position; its room is the room the robot is in (read from the sign

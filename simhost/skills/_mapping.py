@@ -1,4 +1,4 @@
-"""Occupancy grid, breadth-first planning and path following for the heuristic map planner.
+"""Occupancy grid, breadth-first planning and path following, from the agent's range scans.
 
 numpy only. The grid holds, per 10 cm cell, whether it was ever observed and an evidence
 score (free scans lower it, scan hits and collisions raise it); a cell is an obstacle when

@@ -3,12 +3,17 @@
     python -m plugins.protocol_doc          # rewrite the generated sections
     python -m plugins.protocol_doc --check  # exit 1 when any of them is stale
 
-The page's hand-written text explains; the tables come from the code: the message fields
+Pages (``PAGES``): ``schemas/PROTOCOL.md`` and ``docs/contract.md``. Their hand-written text
+explains; the tables come from the code: the message fields
 from the ``schemas`` models, the error codes and end reasons from their definitions, a
 byte-exact example from the encoder, and, per installed track, the stages
 (``TrackPlugin.stages()``), the observation and action specs (``TrackEpisode``'s
 ``FieldSpec``s, sampled over several scenarios of every split, since a track's spec may
-depend on its scenario) and the files it collects. Each generated section sits between
+depend on its scenario) and the files it collects; the contract's environment variables
+(``schemas.CONTAINER.variables()``), how log steps are numbered, the Python client's calls
+and ``TimeStep`` fields, and each track's vocabulary (failure reasons, reach, categories,
+affordances, planning messages; Track 2's packet keys, task-model names and how they are
+compared). Each generated section sits between
 ``<!-- generated:NAME … -->`` and ``<!-- end generated:NAME -->``; a track without a section
 yet gets one before ``<!-- end tracks -->``. A test fails when the page and the code differ.
 """
@@ -36,6 +41,10 @@ from schemas import _protocol as proto
 from simhost._episode import StageSpec
 
 DOC = Path(schemas.__file__).with_name("PROTOCOL.md")
+_ROOT = DOC.parent.parent
+#: Every page with generated sections: the protocol page (which also gets a section per
+#: installed track) and the contract (its environment table and the client's types).
+PAGES = (DOC, _ROOT / "docs" / "contract.md")
 #: Scenarios sampled per split (seeds and indexes 0..SAMPLES-1).
 SAMPLES = 5
 _TRACKS_END = "<!-- end tracks -->"
@@ -112,6 +121,9 @@ REQUESTS = (proto.Hello, proto.Reset, proto.Step, proto.Answer, proto.EndStage)
 REPLIES = (proto.HelloReply, proto.ObservationReply, proto.ErrorReply)
 PARTS = (proto.TensorMeta, proto.FieldSpec, proto.StageInfo, proto.HostMessage,
          proto.ActionResult)
+#: The requests the host's step count counts (``SimHost._step``); a test plays the others
+#: through a real host and checks they leave the count alone.
+COUNTED = ("step",)
 
 
 def messages_section() -> str:
@@ -173,6 +185,112 @@ def example_section() -> str:
         "```",
     ]
     return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------- the contract and the client
+def environment_section() -> str:
+    """Every environment variable of the container contract (``schemas.CONTAINER``): the
+    value a container sees and what it means."""
+    rows = ["| variable | in a container | meaning |", "|---|---|---|"]
+    for v in schemas.CONTAINER.variables():
+        rows.append(f"| `{v.name}` | `{v.value}` | {_cell(v.meaning)} |")
+    return "\n".join(rows) + "\n\nNothing else is in the environment.\n"
+
+
+def attribute_doc(cls: type, name: str) -> str:
+    """The docstring written under attribute ``name`` in ``cls``'s source (``""``)."""
+    import ast
+    import inspect
+    import textwrap
+
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
+    except (OSError, TypeError):
+        return ""
+    body = tree.body[0].body if tree.body and isinstance(tree.body[0], ast.ClassDef) else []
+    for here, after in zip(body, body[1:], strict=False):
+        if (isinstance(here, ast.AnnAssign) and isinstance(here.target, ast.Name)
+                and here.target.id == name and isinstance(after, ast.Expr)
+                and isinstance(after.value, ast.Constant) and isinstance(after.value.value, str)):
+            return " ".join(after.value.value.split())
+    return ""
+
+
+def log_steps_section() -> str:
+    """How ``episode_log.jsonl``'s ``step`` is numbered: the host's count, which requests
+    it counts (``COUNTED``), and the slack a record is given (``plugins._audit``)."""
+    from plugins import _audit
+
+    counted = [m for m in REQUESTS if m.model_fields["kind"].default in COUNTED]
+    not_counted = [m for m in REQUESTS if m not in counted]
+    names = lambda ms: ", ".join(f"`{m.model_fields['kind'].default}`" for m in ms)  # noqa: E731
+    step = (schemas.LogRecord.model_fields["step"].description or "").removeprefix(
+        "Graded. ")
+    rule = next(" ".join(p.split()) for p in (_audit.__doc__ or "").split("\n\n")
+                if "names the host's step" in p).split(". ")[0]
+    return "\n".join([
+        f"`LogRecord.step` (graded): {_cell(step)} {rule}. That is, the host counts "
+        f"{names(counted)} requests it served (an action the world refused included: it "
+        "has a reply with `ok` false); "
+        f"{names(not_counted)} requests, and those answered with an `error` reply, are "
+        f"not steps. A record may name the step it is about to make or the one it just "
+        f"made (`plugins._audit.STEP_SLACK` = {_audit.STEP_SLACK}); a record past the "
+        "host's count is flagged in the audit and noted on the score card.",
+    ]) + "\n"
+
+
+def _signature(fn: Callable[..., Any]) -> str:
+    import inspect
+
+    sig = inspect.signature(fn)
+    params = [p for p in sig.parameters.values() if p.name != "self"]
+    shown = []
+    for p in params:
+        if p.kind is p.VAR_KEYWORD:
+            shown.append(f"**{p.name}")
+        elif p.kind is p.KEYWORD_ONLY and not any(x.startswith("*") for x in shown):
+            shown += ["*", p.name if p.default is p.empty else f"{p.name}=…"]
+        else:
+            shown.append(p.name if p.default is p.empty else f"{p.name}=…")
+    ret = sig.return_annotation
+    ret = ret if isinstance(ret, str) else getattr(ret, "__name__", str(ret))
+    return f"{fn.__name__}({', '.join(shown)}) → {ret}"
+
+
+def client_section() -> str:
+    """What the Python client (``simhost.agent``) returns: ``RemoteEnv``'s calls, the
+    fields of its ``TimeStep`` (their meaning from the reply they come from), and
+    ``OutputFiles``' calls."""
+    from typing import get_type_hints
+
+    from simhost import agent
+
+    remote = ["| call | what it does |", "|---|---|"]
+    for name in ("hello", "reset", "step", "answer", "end_stage", "close"):
+        fn = getattr(agent.RemoteEnv, name)
+        remote.append(f"| `{_cell(_signature(fn))}` | {_cell(_first_line(fn.__doc__))} |")
+    for name in ("observation_spec", "action_spec", "stages"):
+        said = proto.HelloReply.model_fields[name].description or ""
+        remote.append(f"| `.{name}` | {_cell(said.rstrip('.'))} (from the hello reply) |")
+    hints = get_type_hints(agent.TimeStep)
+    reply = proto.ObservationReply.model_fields
+    fields = ["| field | type | meaning |", "|---|---|---|"]
+    for name in agent.TimeStep._fields:
+        meaning = reply[name].description if name in reply else ""
+        if name == "observation":  # RemoteEnv merges the tensors in
+            meaning = (f"{meaning.rstrip('.')}, and the reply's tensors as numpy arrays, "
+                       "by name (the specs say which entry travels how).")
+        fields.append(f"| `{name}` | {type_name(hints[name])} | {_cell(meaning or '')} |")
+    files = ["| call | what it does |", "|---|---|"]
+    for name in ("write", "log", "close"):
+        fn = getattr(agent.OutputFiles, name)
+        files.append(f"| `{_cell(_signature(fn))}` | {_cell(_first_line(fn.__doc__))} |")
+    return "\n".join([
+        f"`RemoteEnv` — {_cell(_first_line(agent.RemoteEnv.__doc__))}", "", *remote, "",
+        f"`TimeStep` — {_cell(_first_line(agent.TimeStep.__doc__))} "
+        "`ts.message(type)` gives the first host message of a type.", "", *fields, "",
+        f"`OutputFiles` — {_cell(_first_line(agent.OutputFiles.__doc__))}", "", *files,
+    ]) + "\n"
 
 
 # ---------------------------------------------------------------------- track sections
@@ -334,6 +452,7 @@ def track1_vocabulary(plugin: TrackPlugin) -> str:
         rows.append(f"| `{split}` | {c.reach:g} m | {c.furniture_reach:g} m | "
                     f"{c.door_reach:g} m | {c.max_forward:g} m | "
                     f"{math.degrees(c.max_turn):g}° |")
+    instruction = instruction_lines(plugin)
     from simhost.track1 import _catalogue as cat
 
     effects = ", ".join(f"`{a}` ({b} → {c})" for a, (b, c) in cat.AFFORDANCE_EFFECTS.items())
@@ -354,7 +473,53 @@ def track1_vocabulary(plugin: TrackPlugin) -> str:
         "Reach (the robot's centre to the target) and motion per `move` step, by split:",
         "",
         *rows,
+        "",
+        *instruction,
     ])
+
+
+def instruction_lines(plugin: TrackPlugin) -> list[str]:
+    """Track 1's planning messages (``instruction``, ``queries``): their keys, what each
+    holds (``plugins.track1._types.Task``'s attribute docs), the query kinds, and the
+    instruction of a sampled scenario as the host sends it."""
+    from plugins.track1 import _types
+
+    keys: dict[str, dict[str, list[str]]] = {}
+    example: dict[str, Any] = {}
+    for split in _split_names(plugin):
+        episode = plugin.make_episode(plugin.make_scenario(seed=0, split=split, params={},
+                                                           index=0))
+        try:
+            episode.reset()
+            for m in episode.on_stage_start("planning"):
+                for k in m.data:
+                    keys.setdefault(m.type, {}).setdefault(k, []).append(split)
+                if m.type == "instruction" and not example:
+                    example = dict(m.data)
+        finally:
+            episode.close()
+    splits = _split_names(plugin)
+    said = {"steps": attribute_doc(_types.Task, "steps").rstrip("."),
+            "substitutes": attribute_doc(_types.Task, "substitute_rule").rstrip(".")}
+
+    def cell(msg: str, k: str) -> str:
+        where = keys[msg][k]
+        only = "" if len(where) == len(splits) else (
+            " (only on " + ", ".join(f"`{x}`" for x in where) + ")")
+        return f"`{k}`{only}" + (f": {said[k]}" if msg == "instruction" and k in said else "")
+
+    kinds = ", ".join(f"`{k}`" for k in get_args(_types.QueryKind))
+    return [
+        "Planning messages (sampled on every split): `instruction` holds "
+        + "; ".join(cell("instruction", k) for k in keys.get("instruction", {}))
+        + ". `queries` holds " + "; ".join(cell("queries", k) for k in keys.get("queries", {}))
+        + f"; each query has an `id`, a `kind` ({kinds}), its `text` and the description's "
+        "fields. For example (seed 0, split " + f"`{splits[0]}`):",
+        "",
+        "```json",
+        json.dumps({k: v for k, v in example.items()}, indent=1, ensure_ascii=False),
+        "```",
+    ]
 
 
 def track2_vocabulary(plugin: TrackPlugin) -> str:
@@ -384,12 +549,20 @@ def track2_vocabulary(plugin: TrackPlugin) -> str:
                 [1.0, 2.0]), (True, True), ("Peg", "peg")]
     cases = "; ".join(f"`{json.dumps(p)}` for `{json.dumps(t)}`: {close(p, t):.2f}"
                       for p, t in examples)
+    from plugins.track2 import _scoring
+
+    rule = next(" ".join(b.split()) for b in (_scoring.__doc__ or "").split("\n- ")
+                if b.startswith("``task_model``"))
+    weights = ", ".join(f"{k} {w:g}" for k, w in _scoring.MODEL_WEIGHTS.items())
     return "\n".join([
         *packet_keys(plugin, split),
         f"Task-model names per family (the truths of sampled `{split}` instances; "
         "`simhost.track2.task_truth`): a model of another family scores 0.",
         "",
         *rows,
+        "",
+        "How a model is compared with the truth (`plugins.track2._scoring`, weights "
+        f"`MODEL_WEIGHTS`: {weights}): {rule.removeprefix('``task_model``: ')}",
         "",
         "Values (constraints, success criteria) are compared by "
         "`plugins.track2._scoring.close`, credit in [0, 1]; for example " + cases + ".",
@@ -492,6 +665,9 @@ def sections(tracks: Iterable[str] | None = None) -> dict[str, Callable[[], str]
         "messages": messages_section,
         "errors": errors_section,
         "end-reasons": end_reasons_section,
+        "environment": environment_section,
+        "log-steps": log_steps_section,
+        "client": client_section,
     }
     names = list(tracks if tracks is not None else available_tracks())
     names.sort(key=lambda n: (_TRACK_ORDER.index(n) if n in _TRACK_ORDER else 99, n))
@@ -500,11 +676,14 @@ def sections(tracks: Iterable[str] | None = None) -> dict[str, Callable[[], str]
     return out
 
 
-def render(text: str, tracks: Iterable[str] | None = None) -> str:
-    """``text`` with every generated section rewritten (and missing tracks added)."""
+def render(text: str, tracks: Iterable[str] | None = None, *, add_tracks: bool = True
+           ) -> str:
+    """``text`` with every generated section rewritten (and, with ``add_tracks``, missing
+    tracks added)."""
     todo = sections(tracks)
     present = {m.group("name") for m in _SECTION.finditer(text)}
-    missing = [n for n in todo if n.startswith("track:") and n not in present]
+    missing = [n for n in todo if n.startswith("track:") and n not in present
+               ] if add_tracks else []
     if missing:
         if _TRACKS_END not in text:
             raise ValueError(f"{DOC.name} has no {_TRACKS_END!r} marker to add tracks before")
@@ -526,7 +705,7 @@ def render(text: str, tracks: Iterable[str] | None = None) -> str:
 def stale(path: Path = DOC) -> list[str]:
     """Names of the generated sections that differ from the code (empty: up to date)."""
     text = path.read_text()
-    fresh = render(text)
+    fresh = render(text, add_tracks=path.name == DOC.name)
     if fresh == text:
         return []
     old = {m.group("name"): m.group(0) for m in _SECTION.finditer(text)}
@@ -539,16 +718,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--check", action="store_true", help="exit 1 if the page is stale")
     args = ap.parse_args(argv)
     if args.check:
-        names = stale()
-        if names:
-            print(f"{DOC} is stale in: {', '.join(names)}; run python -m plugins.protocol_doc",
-                  file=sys.stderr)
-            return 1
-        print(f"{DOC} is up to date")
-        return 0
-    text = DOC.read_text()
-    DOC.write_text(render(text))
-    print(f"wrote {DOC}")
+        bad = 0
+        for page in (p for p in PAGES if p.exists()):
+            names = stale(page)
+            if names:
+                bad += 1
+                print(f"{page} is stale in: {', '.join(names)}; run python -m "
+                      "plugins.protocol_doc", file=sys.stderr)
+            else:
+                print(f"{page} is up to date")
+        return 1 if bad else 0
+    for page in (p for p in PAGES if p.exists()):
+        text = page.read_text()
+        page.write_text(render(text, add_tracks=page == DOC))
+        print(f"wrote {page}")
     return 0
 
 

@@ -7,7 +7,14 @@ Light on purpose (no imports beyond the standard library): team images import it
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+
+def _env(name: str, meaning: str) -> Any:
+    """A field naming an environment variable ``name``; ``meaning`` is what the docs (and
+    ``ContainerContract.variables``) say of it."""
+    return field(default=name, metadata={"meaning": meaning})
 
 
 @dataclass(frozen=True)
@@ -26,14 +33,25 @@ class ContainerContract:
     uid: int = 10001
     #: Small writable tmpfs; also ``$HOME``.
     tmp_dir: str = "/tmp"
-    #: Environment: the Zenoh endpoint to connect to.
-    env_endpoint: str = "EAGC_ENDPOINT"
-    #: Environment: the opaque episode id (4-64 of ``[A-Za-z0-9_-]``; part of every key).
-    env_episode: str = "EAGC_EPISODE"
-    #: Environment: where to write files (``output_dir`` in a container).
-    env_output: str = "EAGC_OUTPUT"
-    #: Environment: where inputs are (``input_dir`` in a container); set only when present.
-    env_input: str = "EAGC_INPUT"
+    # The environment a container gets (``environment()``): each field names a variable
+    # and says what it means (``variables()``, and the docs' tables generated from it).
+    env_endpoint: str = _env(
+        "EAGC_ENDPOINT", "the Zenoh endpoint to connect to: a unix socket in `/run/eagc`, "
+        "read-only (the container has no network)")
+    env_episode: str = _env(
+        "EAGC_EPISODE", "the opaque episode id (4-64 of `[A-Za-z0-9_-]`), part of every "
+        "key; never a seed, split, campaign or team name")
+    env_output: str = _env(
+        "EAGC_OUTPUT", "where the files go: writable, size-capped, snapshotted at every "
+        "stage end and when the episode ends")
+    env_input: str = _env(
+        "EAGC_INPUT", "read-only inputs (Track 2's demonstration packet); set only when the "
+        "track has inputs")
+    env_home: str = _env(
+        "HOME", "the home folder: the small writable tmpfs (the root is read-only)")
+    env_unbuffered: str = _env(
+        "PYTHONUNBUFFERED", "Python writes stdout and stderr unbuffered, so that the log's "
+        "last lines are there when the agent dies")
     #: Longest socket path the host accepts: AF_UNIX paths are limited to 108 bytes.
     max_socket_path: int = 100
 
@@ -55,12 +73,39 @@ class ContainerContract:
             self.env_endpoint: unix_endpoint(f"{socket_dir}/{self.socket_name}"),
             self.env_episode: episode,
             self.env_output: output_dir,
-            "HOME": self.tmp_dir,
-            "PYTHONUNBUFFERED": "1",
+            self.env_home: self.tmp_dir,
+            self.env_unbuffered: "1",
         }
         if input_dir is not None:
             env[self.env_input] = input_dir
         return env
+
+
+    def variables(self) -> tuple[EnvVariable, ...]:
+        """Every environment variable of the contract, with the value a container sees
+        (``<episode>`` for the episode id) and what it means: ``environment()`` sets these
+        and nothing else."""
+        seen = self.environment("<episode>", socket_dir=self.socket_dir,
+                                output_dir=self.output_dir, input_dir=self.input_dir)
+        out = []
+        for f in fields(self):
+            if "meaning" in f.metadata:
+                name = getattr(self, f.name)
+                out.append(EnvVariable(name, seen[name], f.metadata["meaning"],
+                                       always=f.name != "env_input"))
+        assert {v.name for v in out} == set(seen), "environment() and the fields disagree"
+        return tuple(out)
+
+
+@dataclass(frozen=True)
+class EnvVariable:
+    """One environment variable of the contract: its name, the value a container sees,
+    what it means, and whether every episode sets it."""
+
+    name: str
+    value: str
+    meaning: str
+    always: bool = True
 
 
 def unix_endpoint(socket_path: str) -> str:

@@ -82,3 +82,89 @@ def test_the_byte_example_decodes_to_what_it_says():
     r"\]\(((?:\.\./|json/)[^)#]+)\)", protocol_doc.DOC.read_text()))))
 def test_links_on_the_page_exist(target):
     assert (protocol_doc.DOC.parent / target).resolve().exists(), target
+
+
+@pytest.mark.slow
+def test_the_contract_page_matches_the_code():
+    page = protocol_doc.PAGES[1]
+    assert page.name == "contract.md"
+    assert not protocol_doc.stale(page), f"{page} is stale: {FIX}"
+
+
+def test_every_page_holds_the_vocabulary_sections():
+    """The issue's list (issue 22 §6): the environment, log step numbering and the client's
+    types are generated into the pages; the tracks' vocabulary into their sections."""
+    protocol, contract = (p.read_text() for p in protocol_doc.PAGES)
+    for name in ("environment", "log-steps"):
+        assert f"<!-- generated:{name} " in protocol, name
+    for name in ("environment", "client"):
+        assert f"<!-- generated:{name} " in contract, name
+    for words in ("Failure reasons an action result may carry", "Reach (the robot's centre",
+                  "The graded inventory", "Planning messages", "`steps`:"):
+        assert words in protocol, words
+    for words in ("trajectory.npz", "Task-model names per family",
+                  "How a model is compared with the truth"):
+        assert words in protocol, words
+
+
+def test_the_environment_table_is_every_variable_a_container_gets():
+    from schemas import CONTAINER
+
+    env = CONTAINER.environment("ep", socket_dir="/s", output_dir="/o", input_dir="/i")
+    table = protocol_doc.environment_section()
+    names = re.findall(r"^\| `(\w+)` \|", table, re.M)
+    assert names == [v.name for v in CONTAINER.variables()]
+    assert set(names) == set(env)
+    assert f"| `{CONTAINER.env_output}` | `{CONTAINER.output_dir}` |" in table
+    for page in protocol_doc.PAGES:  # the pages carry today's table
+        assert table.strip() in page.read_text(), page
+
+
+def test_a_changed_variable_makes_both_pages_stale(monkeypatch):
+    import dataclasses
+
+    from schemas import CONTAINER
+
+    monkeypatch.setattr(protocol_doc.schemas, "CONTAINER",
+                        dataclasses.replace(CONTAINER, env_output="EAGC_OUT"))
+    for page in protocol_doc.PAGES:  # the tracks' sections left as they are: fast
+        text = page.read_text()
+        fresh = protocol_doc.render(text, tracks=[], add_tracks=False)
+        assert fresh != text and "| `EAGC_OUT` | `/output` |" in fresh, page
+
+
+def test_the_client_section_names_every_timestep_field():
+    from simhost.agent import OutputFiles, RemoteEnv, TimeStep
+
+    text = protocol_doc.client_section()
+    for name in TimeStep._fields:
+        assert f"| `{name}` |" in text, name
+    for fn in (RemoteEnv.step, RemoteEnv.end_stage, RemoteEnv.answer, OutputFiles.write,
+               OutputFiles.log):
+        assert f"`{fn.__name__}(" in text
+    assert "step(action) → TimeStep" in text
+    assert text.strip() in protocol_doc.PAGES[1].read_text()
+
+
+def test_only_served_step_requests_are_counted(host_episode):
+    """What the log-steps section says (``COUNTED``), played through a real host: hello,
+    reset, end_stage and a step refused with an error reply leave the count alone."""
+    from simhost.agent import HostError, RemoteEnv
+
+    assert protocol_doc.COUNTED == ("step",)
+    assert "`end_stage` requests" in protocol_doc.log_steps_section()
+    env = RemoteEnv(host_episode.endpoint, host_episode.episode, timeout_s=10.0)
+    try:
+        env.hello(agent="count/1")
+        env.reset()
+        env.step({"velocity": [0.5, 0.0]})
+        env.step({"velocity": [0.0, 0.5]})
+        ts = env.end_stage({})
+        assert ts.stage_index == 1
+        with pytest.raises(HostError):
+            env.step({"velocity": [float("nan"), 0.0]})
+        env.step({"velocity": [0.0, 0.0]})
+    finally:
+        env.close()
+    host_episode.stop.set()
+    assert host_episode.outcome().steps == 3

@@ -32,13 +32,23 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from mcap.reader import make_reader
 from pydantic import BaseModel, ConfigDict, computed_field
 
 from orchestrator._episode.replay import ReplayError, replay
 from plugins import load_track
 from plugins._audit import STEP_SLACK, Finding, HostSteps, Severity, log_step_findings
-from schemas import LogRecord, SchemaError, parse_episode_log
+from schemas import LogRecord, ObservationReply, SchemaError, parse_episode_log
+from simhost._records import (
+    HostEventModel,
+    McapRecordError,
+    ScenarioRecord,
+    SmallTensors,
+    StageEndEvent,
+    StageStartEvent,
+    StepRequest,
+    read_records,
+    read_scenario,
+)
 
 _TOPICS = ["/eagc/scenario", "/eagc/request", "/eagc/reply", "/eagc/observation",
            "/eagc/event"]
@@ -98,45 +108,42 @@ def track_checks(track: str) -> ModuleType | None:
 class _Log:
     """What the audit reads of an MCAP log."""
 
-    scenario: dict[str, Any]
-    events: list[dict[str, Any]]
+    scenario: ScenarioRecord
+    events: list[HostEventModel]
     host: HostSteps
 
 
 def _read_log(path: Path, shown: Any) -> _Log:
     """Reads the log once, feeding ``shown`` (None: no track checks) as it goes."""
-    scenario: dict[str, Any] | None = None
-    events: list[dict[str, Any]] = []
+    scenario: ScenarioRecord | None = None
+    events: list[HostEventModel] = []
     steps = 0
     stages: dict[str, list[int]] = {}
     action: dict[str, Any] | None = None
-    with path.open("rb") as f:
-        for _, channel, message in make_reader(f).iter_messages(topics=_TOPICS,
-                                                                 log_time_order=True):
-            topic, data = channel.topic, json.loads(message.data)
-            if topic == "/eagc/scenario":
-                scenario = data
-            elif topic == "/eagc/request":
-                if data.get("kind") == "step":
-                    steps += 1
-                    action = data.get("action") or {}
-            elif topic == "/eagc/event":
-                events.append(data)
-                if data.get("event") == "stage_start":
-                    stages[str(data.get("stage"))] = [steps, steps]
-                elif data.get("event") == "stage_end":
-                    stages.setdefault(str(data.get("stage")), [steps, steps])[1] = steps
-            elif shown is None:
-                continue
-            elif topic == "/eagc/reply" and data.get("kind") == "observation":
-                shown.observe(steps, data.get("observation") or {}, {})
-                for m in data.get("messages") or ():
-                    shown.message(steps, m)
-                if action is not None and data.get("action") is not None:
-                    shown.action(steps, action, data["action"])
+    for record in read_records(path, _TOPICS):
+        match record.body:
+            case ScenarioRecord() as scenario:
+                pass
+            case StepRequest() as step:
+                steps += 1
+                action = step.action
+            case StageStartEvent(stage=stage) as event:
+                events.append(event)
+                stages[stage] = [steps, steps]
+            case StageEndEvent(stage=stage) as event:
+                events.append(event)
+                stages.setdefault(stage, [steps, steps])[1] = steps
+            case ObservationReply() as reply if shown is not None:
+                shown.observe(steps, reply.observation, {})
+                for m in reply.messages:
+                    shown.message(steps, m.model_dump(mode="json"))
+                if action is not None and reply.action is not None:
+                    shown.action(steps, action, reply.action.model_dump(mode="json"))
                 action = None
-            elif topic == "/eagc/observation":
-                shown.observe(steps, {}, data)
+            case SmallTensors(values=tensors) if shown is not None:
+                shown.observe(steps, {}, tensors)
+            case body if record.topic == "/eagc/event":
+                events.append(body)
     if scenario is None:
         raise EpisodeAuditError(f"{path}: no /eagc/scenario message: not an eagc episode log")
     return _Log(scenario, events, HostSteps(steps, {k: (v[0], v[1]) for k, v in stages.items()}))
@@ -177,14 +184,17 @@ def audit_episode(folder: Path | str, *, verify: bool = True) -> EpisodeAudit:
     mcap = folder / "host" / "episode.mcap"
     if not mcap.is_file():
         raise EpisodeAuditError(f"{folder}: no host/episode.mcap to audit")
-    with mcap.open("rb") as f:
-        first = next(make_reader(f).iter_messages(topics=["/eagc/scenario"]), None)
-    if first is None:
-        raise EpisodeAuditError(f"{mcap}: no /eagc/scenario message: not an eagc episode log")
-    track = json.loads(first[2].data)["track"]
-    checks = track_checks(track)
-    shown = checks.Shown() if checks is not None else None
-    log = _read_log(mcap, shown)
+    try:
+        first = read_scenario(mcap)
+        if first is None:
+            raise EpisodeAuditError(
+                f"{mcap}: no /eagc/scenario message: not an eagc episode log")
+        track = first.track
+        checks = track_checks(track)
+        shown = checks.Shown() if checks is not None else None
+        log = _read_log(mcap, shown)
+    except McapRecordError as e:
+        raise EpisodeAuditError(str(e)) from None
 
     check: ReplayCheck | None = None
     if verify:
@@ -217,10 +227,10 @@ def audit_episode(folder: Path | str, *, verify: bool = True) -> EpisodeAudit:
     findings += [problem] if problem is not None else log_step_findings(records, log.host)
     if checks is not None:
         flags = checks.check_episode(
-            shown, scenario_params=log.scenario.get("params") or {}, events=log.events,
+            shown, scenario_params=log.scenario.params, events=log.events,
             snapshots=[checks.Snapshot(n, s, f) for n, s, f in snapshots], log=records)
         findings += [Finding(check=f.check, severity=f.severity, message=f.message,
                              step=f.step, subjects=f.subjects) for f in flags]
-    return EpisodeAudit(episode=str(log.scenario.get("episode", folder.name)),
+    return EpisodeAudit(episode=log.scenario.episode,
                         folder=str(folder), track=track, host_steps=log.host.total,
                         replay=check, findings=tuple(findings))

@@ -10,18 +10,29 @@ replay matches), and it is how an organizer audits a top submission's run.
 
 from __future__ import annotations
 
-import json
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
-
-from mcap.reader import make_reader
 
 from orchestrator._errors import OrchestratorError
 from plugins import Scenario, load_track
 from simhost._actions import check_action
 from simhost._episode import Observation
+from simhost._records import (
+    AnswerRequest,
+    EndStageRequest,
+    FullState,
+    McapRecordError,
+    Record,
+    ResetRequest,
+    ScenarioRecord,
+    StageEndEvent,
+    StageStartEvent,
+    StateHash,
+    StepRequest,
+    read_records,
+)
 
 _TOPICS = ["/eagc/scenario", "/eagc/request", "/eagc/event", "/eagc/state_hash", "/eagc/state"]
 
@@ -46,15 +57,11 @@ class ReplayReport:
         return not self.mismatches and self.hashes_checked == self.steps
 
 
-def _messages(path: Path) -> list[tuple[str, dict[str, Any] | bytes]]:
-    out: list[tuple[str, dict[str, Any] | bytes]] = []
-    with path.open("rb") as f:
-        for _, channel, message in make_reader(f).iter_messages(
-            topics=_TOPICS, log_time_order=True
-        ):
-            data = message.data if channel.topic == "/eagc/state" else json.loads(message.data)
-            out.append((channel.topic, data))
-    return out
+def _messages(path: Path) -> list[Record]:
+    try:
+        return list(read_records(path, _TOPICS))
+    except McapRecordError as e:
+        raise ReplayError(str(e)) from None
 
 
 def replay(mcap_path: Path | str, *, max_mismatches: int = 5,
@@ -72,57 +79,49 @@ def replay(mcap_path: Path | str, *, max_mismatches: int = 5,
 
     path = Path(mcap_path)
     messages = _messages(path)
-    scen = next((d for t, d in messages if t == "/eagc/scenario"), None)
-    if not isinstance(scen, dict):
+    scen = next((r.body for r in messages if isinstance(r.body, ScenarioRecord)), None)
+    if scen is None:
         raise ReplayError(f"{path}: no /eagc/scenario message: not an eagc episode log")
-    plugin = load_track(scen["track"])
+    plugin = load_track(scen.track)
     episode = plugin.make_episode(
-        Scenario(track=scen["track"], split=scen["split"], seed=scen["seed"],
-                 params=scen["params"])
+        Scenario(track=scen.track, split=scen.split, seed=scen.seed, params=scen.params)
     )
-    report = ReplayReport(track=scen["track"], episode=scen["episode"])
-    payload: dict[str, Any] = {}
+    report = ReplayReport(track=scen.track, episode=scen.episode)
+    payload: Mapping[str, Any] = {}
 
     def mismatch(text: str) -> None:
         report.mismatches.append(text)
 
     try:
-        for topic, data in messages:
+        for record in messages:
             if len(report.mismatches) >= max_mismatches:
                 break
-            if topic == "/eagc/state":
-                assert isinstance(data, bytes)
-                if episode.sim_state() != data:
-                    mismatch(f"full state differs after step {report.steps}")
-                report.states_checked += 1
-                continue
-            assert isinstance(data, dict)
-            if topic == "/eagc/request":
-                kind, stage = data["kind"], data.get("stage")
-                if kind == "reset":
+            match record.body:
+                case FullState(data=state):
+                    if episode.sim_state() != state:
+                        mismatch(f"full state differs after step {report.steps}")
+                    report.states_checked += 1
+                case ResetRequest():
                     shown(episode.reset())
-                elif kind == "step":
-                    action = check_action(episode.action_spec, data["action"])
-                    out = episode.step(stage, action)
+                case StepRequest(stage=stage, action=action):
+                    out = episode.step(stage, check_action(episode.action_spec, action))
                     report.steps += 1
                     shown(out.observation)
-                elif kind == "answer":
-                    shown(episode.answer(stage, data["answers"]).observation)
-                elif kind == "end_stage":
-                    payload = data.get("payload") or {}
-            elif topic == "/eagc/event":
-                if data["event"] == "stage_start":
-                    episode.on_stage_start(data["stage"])
-                elif data["event"] == "stage_end":
-                    ended_by = data["ended_by"]
-                    episode.on_stage_end(data["stage"], ended_by=ended_by,
+                case AnswerRequest(stage=stage, answers=answers):
+                    shown(episode.answer(stage, answers).observation)
+                case EndStageRequest(payload=given):
+                    payload = given
+                case StageStartEvent(stage=stage):
+                    episode.on_stage_start(stage)
+                case StageEndEvent(stage=stage, ended_by=ended_by):
+                    episode.on_stage_end(stage, ended_by=ended_by,
                                          payload=payload if ended_by == "agent" else {})
                     payload = {}
-            elif topic == "/eagc/state_hash":
-                report.hashes_checked += 1
-                got = episode.state_hash()
-                if got != data["hash"]:
-                    mismatch(f"step {data['step']}: state hash {got}, logged {data['hash']}")
+                case StateHash(step=step, hash=logged):
+                    report.hashes_checked += 1
+                    got = episode.state_hash()
+                    if got != logged:
+                        mismatch(f"step {step}: state hash {got}, logged {logged}")
     finally:
         episode.close()
     return report

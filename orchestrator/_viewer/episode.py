@@ -12,7 +12,6 @@ picture of the episode and the graded model against the truth.
 
 from __future__ import annotations
 
-import base64
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,7 +20,22 @@ from typing import Any
 import numpy as np
 
 from orchestrator._viewer import frames as fr
-from schemas import EpisodeResult
+from schemas import EpisodeResult, ErrorReply, HelloReply, ObservationReply
+from simhost._records import (
+    CompressedImage,
+    FrameTransforms,
+    FullState,
+    HostEventModel,
+    McapRecordError,
+    OutputFile,
+    RawImage,
+    ScenarioRecord,
+    SmallTensors,
+    StageEndEvent,
+    StageStartEvent,
+    StateHash,
+    read_records,
+)
 
 #: Lines of the agent's own log shown at the end of the page.
 LOG_TAIL_LINES = 60
@@ -91,114 +105,149 @@ def read_episode(folder: Path, *, organizer: bool) -> EpisodeView:
     result = EpisodeResult.model_validate_json((host / "result.json").read_text())
     view = EpisodeView(id=result.episode, result=result, organizer=organizer)
     mcap = host / "episode.mcap"
-    scenario: dict[str, Any] = {}
+    log = _Log()
     if mcap.is_file():
-        scenario = _read_log(mcap, view)
+        log = _read_log(mcap, view)
     else:
         view.problems.append("no MCAP log in this episode folder: no frames, no timeline")
     _agent_log(host, view)
     _snapshots(host, result, view)
     _log_tail(host, result, view)
-    if scenario:
-        _map(folder, scenario, view)
-    if organizer and scenario:
-        view.hidden = json.dumps(scenario, indent=2, default=str)
+    if log.scenario is not None:
+        _map(folder, log, view)
+    if organizer and log.scenario is not None:
+        view.hidden = json.dumps(log.scenario.model_dump(mode="json", exclude_unset=True),
+                                 indent=2, default=str)
         _track_picture(folder, result, view)
-        _truth(host, scenario, view)
+        _truth(host, log.scenario, view)
     view.events.sort(key=lambda e: (e.step, {"host": 0, "action": 1, "agent": 2}[e.source]))
     return view
 
 
 # ------------------------------------------------------------------------------ the log
-def _read_log(mcap: Path, view: EpisodeView) -> dict[str, Any]:
-    from mcap.reader import make_reader
+#: Problems with the log's records listed on the page, at most.
+MAX_LOG_PROBLEMS = 5
 
-    scenario: dict[str, Any] = {}
+
+@dataclass
+class _Stage:
+    name: str
+    start: int
+    end: int | None = None
+    ended_by: str | None = None
+
+
+@dataclass
+class _Camera:
+    """One camera frame's images, as logged at one time."""
+
+    step: int
+    rgb: CompressedImage | None = None
+    depth: RawImage | None = None
+    segmentation: CompressedImage | None = None
+
+
+@dataclass
+class _Log:
+    """What the page reads of the MCAP log besides what it puts on the view."""
+
+    scenario: ScenarioRecord | None = None
+    #: Track 2: the hand's path (step, x, y, z) in each attempt of the execution stage.
+    attempts: dict[int, list[list[float]]] = field(default_factory=dict)
+
+
+def _read_log(mcap: Path, view: EpisodeView) -> _Log:
+    log = _Log()
     step, stage = 0, ""
-    frames: dict[float, dict[str, Any]] = {}
+    stages: list[_Stage] = []
+    cameras: dict[int, _Camera] = {}
     path: list[list[float]] = []
-    attempt_paths: dict[int, list[list[float]]] = {}
     attempt: int | None = None
-    with mcap.open("rb") as f:
-        for _, channel, message in make_reader(f).iter_messages(log_time_order=True):
-            topic, t = channel.topic, message.log_time
-            if topic.startswith("/eagc/file") or topic == "/eagc/state":
-                continue
-            doc = json.loads(message.data)
-            if topic == "/eagc/scenario":
-                scenario = doc
-            elif topic == "/eagc/state_hash":
-                step = int(doc["step"])
-            elif topic == "/eagc/event":
-                stage = _host_event(doc, step, stage, view)
-            elif topic == "/eagc/reply":
-                stage = doc.get("stage") or stage
-                act = doc.get("action") or {}
-                if act and act.get("ok") is False:
+    problems: list[McapRecordError] = []
+    for record in read_records(mcap, on_problem=problems.append):
+        match record.body:
+            case FullState() | OutputFile():
+                pass
+            case ScenarioRecord() as scenario:
+                log.scenario = scenario
+            case StateHash() as hashed:
+                step = hashed.step
+            case HelloReply() | ErrorReply():
+                attempt = None
+            case ObservationReply() as reply:
+                stage = reply.stage or stage
+                if reply.action is not None and not reply.action.ok:
                     view.events.append(Event(step, "action", "action failed",
-                                             act.get("reason") or "no reason given", stage))
-                obs = doc.get("observation") or {}
-                attempt = (int(obs.get("attempt") or 0) or None) if (
-                    "attempt" in obs and doc.get("stage") == "execution") else None
-            elif topic == "/eagc/observation" and attempt is not None and doc.get("proprio"):
-                attempt_paths.setdefault(attempt, []).append(
-                    [step, *(float(x) for x in doc["proprio"][:3])])
-            elif topic == "/tf":
-                for tr in doc.get("transforms", []):
-                    if tr.get("child_frame_id") == "robot":
-                        p = tr["translation"]
-                        path.append([step, float(p["x"]), float(p["y"])])
-            elif topic.startswith("/camera/"):
-                frames.setdefault(t, {"step": step})[topic[8:]] = doc
+                                             reply.action.reason or "no reason given", stage))
+                attempt = None
+                if reply.stage == "execution" and "attempt" in reply.observation:
+                    attempt = int(reply.observation["attempt"] or 0) or None
+            case SmallTensors() as tensors if attempt is not None:
+                proprio = tensors.vector("proprio")
+                if proprio:
+                    log.attempts.setdefault(attempt, []).append([step, *proprio[:3]])
+            case FrameTransforms() as tf:
+                robot = tf.of("robot")
+                if robot is not None:
+                    path.append([step, robot.translation.x, robot.translation.y])
+            case CompressedImage() | RawImage() as image:
+                camera = cameras.setdefault(record.log_time, _Camera(step))
+                setattr(camera, record.topic.removeprefix("/camera/"), image)
+            case event if record.topic == "/eagc/event":
+                stage = _host_event(event, step, stage, stages, view)
+    for problem in problems[:MAX_LOG_PROBLEMS]:
+        view.problems.append(str(problem))
+    if len(problems) > MAX_LOG_PROBLEMS:
+        view.problems.append(f"… and {len(problems) - MAX_LOG_PROBLEMS} more records "
+                             "that do not read")
     view.last_step = max(step, view.result.stats.steps)
-    _close_stages(view)
+    _close_stages(stages, view)
     while len(path) > MAX_PATH:
         path = path[::2]
     view.path = [[s, round(x, 3), round(y, 3)] for s, x, y in path]
-    view.attempts = [{"attempt": k, "from": int(p[0][0]), "to": int(p[-1][0]), "xyz": p}
-                     for k, p in sorted(attempt_paths.items())]
-    view.frames = fr.page_frames([_frame(d) for _, d in sorted(frames.items())])
-    return scenario
+    view.attempts = [{"attempt": k, "from": int(p[0][0]), "to": int(p[-1][0])}
+                     for k, p in sorted(log.attempts.items())]
+    view.frames = fr.page_frames([_frame(c) for _, c in sorted(cameras.items())])
+    return log
 
 
-def _host_event(doc: dict[str, Any], step: int, stage: str, view: EpisodeView) -> str:
-    name = str(doc.get("event", "event"))
-    if name == "stage_start":
-        stage = str(doc.get("stage", ""))
-        view.stages.append({"name": stage, "from": step, "to": None, "ended_by": None})
-    elif name == "stage_end" and view.stages:
-        view.stages[-1].update(to=step, ended_by=doc.get("ended_by"))
-    at = int(doc["step"]) if isinstance(doc.get("step"), int) else step
-    shown = {k: v for k, v in doc.items() if k != "event" and k != "episode"
+def _host_event(event: HostEventModel, step: int, stage: str, stages: list[_Stage],
+                view: EpisodeView) -> str:
+    match event:
+        case StageStartEvent():
+            stage = event.stage
+            stages.append(_Stage(stage, step))
+        case StageEndEvent() if stages:
+            stages[-1].end, stages[-1].ended_by = step, event.ended_by
+    at = event.at_step if event.at_step is not None else step
+    shown = {k: v for k, v in event.fields().items() if k != "episode"
              and (view.organizer or k in TEAM_FIELDS)}
     text = ", ".join(f"{k}: {_short(v)}" for k, v in shown.items() if k != "step")
-    view.events.append(Event(at, "host", name.replace("_", " "), text, stage))
+    view.events.append(Event(at, "host", event.event.replace("_", " "), text, stage))
     return stage
 
 
-def _close_stages(view: EpisodeView) -> None:
-    for k, s in enumerate(view.stages):
-        if s["to"] is None:
-            s["to"] = view.stages[k + 1]["from"] if k + 1 < len(view.stages) else view.last_step
+def _close_stages(stages: list[_Stage], view: EpisodeView) -> None:
+    for k, s in enumerate(stages):
+        if s.end is None:
+            s.end = stages[k + 1].start if k + 1 < len(stages) else view.last_step
+    view.stages = [{"name": s.name, "from": s.start, "to": s.end, "ended_by": s.ended_by}
+                   for s in stages]
 
 
-def _frame(d: dict[str, Any]) -> fr.Frame:
-    def png(key: str, seg: bool = False) -> np.ndarray | None:
-        doc = d.get(key)
-        if not doc:
+def _frame(camera: _Camera) -> fr.Frame:
+    def png(image: CompressedImage | None) -> np.ndarray | None:
+        if image is None:
             return None
         try:
-            return fr.decode_png(base64.b64decode(doc["data"]))
-        except (ValueError, KeyError):
+            return fr.decode_png(image.image_bytes())
+        except ValueError:
             return None
 
-    depth = None
-    raw = d.get("depth")
-    if raw and raw.get("encoding") == "32FC1":
-        metres = np.frombuffer(base64.b64decode(raw["data"]), "<f4")
-        depth = fr.depth_picture(metres.reshape(int(raw["height"]), int(raw["width"])))
-    return fr.Frame(step=int(d["step"]), rgb=png("rgb"), depth=depth,
-                    segmentation=png("segmentation"))
+    metres = camera.depth.metres() if camera.depth is not None else None
+    depth = fr.depth_picture(metres) if metres is not None else None
+    return fr.Frame(step=camera.step, rgb=png(camera.rgb), depth=depth,
+                    segmentation=png(camera.segmentation))
 
 
 def _short(v: Any, limit: int = 160) -> str:
@@ -303,24 +352,25 @@ def _log_tail(host: Path, result: EpisodeResult, view: EpisodeView) -> None:
 
 
 # ------------------------------------------------------------------------------ pictures
-def _map(folder: Path, scenario: dict[str, Any], view: EpisodeView) -> None:
+def _map(folder: Path, log: _Log, view: EpisodeView) -> None:
     """Track 1: the house from above (the path is drawn over it by the page); Track 2: each
     attempt beside the demonstration."""
+    assert log.scenario is not None
     try:
-        if scenario.get("track") == "track1":
-            _house(scenario, view)
-        elif scenario.get("track") == "track2" and view.attempts:
-            _attempts(folder, view)
+        if log.scenario.track == "track1":
+            _house(log.scenario, view)
+        elif log.scenario.track == "track2" and view.attempts:
+            _attempts(folder, log.attempts, view)
     except Exception as e:  # noqa: BLE001 - a page without its map is still a page
         view.problems.append(f"no map: {type(e).__name__}: {e}")
 
 
-def _house(scenario: dict[str, Any], view: EpisodeView) -> None:
+def _house(scenario: ScenarioRecord, view: EpisodeView) -> None:
     from plugins.track1 import Track1Scenario
     from simhost.track1 import TOPDOWN_MARGIN, TOPDOWN_SCALE, generate_house, render_topdown
 
-    spec = Track1Scenario.model_validate(scenario["params"])
-    layout = generate_house(int(scenario["seed"]), params=spec.split.params)
+    spec = Track1Scenario.model_validate(scenario.params)
+    layout = generate_house(scenario.seed, params=spec.split.params)
     if view.organizer:
         img = render_topdown(layout)
     else:  # the plan without the items the world model inventories
@@ -343,28 +393,34 @@ class _Plan:
         return initial_ground_truth(self.layout).model_copy(update={"objects": ()})
 
 
-def _attempts(folder: Path, view: EpisodeView) -> None:
+def _attempts(folder: Path, paths: dict[int, list[list[float]]], view: EpisodeView) -> None:
     from simhost.track2 import render_attempt_vs_demo
 
     demo = folder / "input" / "demo"
     if not (demo / "manifest.json").is_file():
         view.problems.append("no demonstration in this episode folder (input/demo)")
         return
-    for a in view.attempts:
-        xyz = np.asarray([p[1:] for p in a.pop("xyz")])
-        png = render_attempt_vs_demo(demo, xyz, title=f"ATTEMPT {a['attempt']}")
-        a["image"] = fr.data_uri(png)
+    for (k, path), shown in zip(sorted(paths.items()), view.attempts, strict=True):
+        xyz = np.asarray([p[1:] for p in path])
+        png = render_attempt_vs_demo(demo, xyz, title=f"ATTEMPT {k}")
+        shown.update(image=fr.data_uri(png))
 
 
-def _truth(host: Path, scenario: dict[str, Any], view: EpisodeView) -> None:
+def _truth(host: Path, scenario: ScenarioRecord, view: EpisodeView) -> None:
     """Track 1: the world model graded at the end of exploration against the house."""
     from orchestrator._viewer.truth import track1_differences
+    from schemas import SchemaError, WorldModel, parse_json
 
     graded = host / "snapshots" / "exploration" / "world_model.json"
-    if scenario.get("track") != "track1" or not graded.is_file():
+    if scenario.track != "track1" or not graded.is_file():
         return
     try:
-        view.truth = track1_differences(scenario, json.loads(graded.read_text()))
+        model = parse_json(graded.read_bytes(), WorldModel, source="world_model.json")
+    except SchemaError as e:
+        view.problems.append(f"no model-vs-truth comparison: {e.summary}")
+        return
+    try:
+        view.truth = track1_differences(scenario, model)
         view.truth_of = "exploration · world_model.json"
     except Exception as e:  # noqa: BLE001 - the rest of the page stands without it
         view.problems.append(f"no model-vs-truth comparison: {type(e).__name__}: {e}")

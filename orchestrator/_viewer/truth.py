@@ -11,6 +11,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from schemas import WorldModel
+from simhost._records import ScenarioRecord
+
 #: Lines listed per kind of difference, at most.
 MAX_LINES = 40
 
@@ -22,17 +25,17 @@ def _listed(label: str, items: list[str]) -> list[str]:
     return [f"{label} ({len(items)}): {', '.join(items[:MAX_LINES])}{more}"]
 
 
-def track1_differences(scenario: dict[str, Any], model: dict[str, Any]) -> list[str]:
-    """What ``model`` (a world_model.json document) gets wrong about the scenario's house."""
+def track1_differences(scenario: ScenarioRecord, model: WorldModel) -> list[str]:
+    """What ``model`` (a world_model.json) gets wrong about the scenario's house."""
     from plugins.track1 import Track1Scenario
     from simhost.track1 import generate_house, initial_ground_truth
 
-    spec = Track1Scenario.model_validate(scenario["params"])
-    gt = initial_ground_truth(generate_house(int(scenario["seed"]), params=spec.split.params))
+    spec = Track1Scenario.model_validate(scenario.params)
+    gt = initial_ground_truth(generate_house(scenario.seed, params=spec.split.params))
     out: list[str] = []
 
     rooms = {r.id: r.type for r in gt.rooms}
-    given = {r.get("id"): r.get("type") for r in model.get("rooms", []) if isinstance(r, dict)}
+    given = {r.id: r.type for r in model.rooms}
     out += _listed("rooms missing", [f"{i} {t}" for i, t in rooms.items() if i not in given])
     out += _listed("rooms extra", [str(i) for i in given if i not in rooms])
     out += _listed("rooms of the wrong type", [f"{i} ({given[i]}, is {t})"
@@ -40,8 +43,7 @@ def track1_differences(scenario: dict[str, Any], model: dict[str, Any]) -> list[
                                                if i in given and given[i] != t])
 
     edges = {frozenset(c.rooms) for c in gt.connections}
-    named = {frozenset(c.get("rooms", ())) for c in model.get("connections", [])
-             if isinstance(c, dict)}
+    named = {frozenset(c.rooms) for c in model.connections}
 
     def edge(e: frozenset[Any]) -> str:
         return "-".join(str(x) for x in sorted(e, key=str))
@@ -49,19 +51,17 @@ def track1_differences(scenario: dict[str, Any], model: dict[str, Any]) -> list[
     out += _listed("room-graph edges missing", [edge(e) for e in edges - named])
     out += _listed("room-graph edges extra", [edge(e) for e in named - edges])
 
-    for label, truth, key in (("doors", {d.id: d.state for d in gt.doors}, "doors"),
-                              ("containers", {c.id: c.state for c in gt.containers},
-                               "containers")):
-        states = {d.get("id"): d.get("state") for d in model.get(key, [])
-                  if isinstance(d, dict)}
+    for label, truth, entries in (
+            ("doors", {d.id: d.state for d in gt.doors}, model.doors),
+            ("containers", {c.id: c.state for c in gt.containers}, model.containers)):
+        states = {d.id: d.state for d in entries}
         out += _listed(f"{label} missing", [str(i) for i in truth if i not in states])
         out += _listed(f"{label} in the wrong state", [
             f"{i} ({states[i]}, is {s})" for i, s in truth.items()
             if i in states and states[i] != s])
 
     objects = {o.id: (o.category, o.room) for o in gt.objects}
-    listed = {o.get("id"): (o.get("category"), o.get("room"))
-              for o in model.get("objects", []) if isinstance(o, dict)}
+    listed = {o.id: (o.category, o.room) for o in model.objects}
     out += _listed("objects missing", [f"{i} {c} in room {r}" for i, (c, r) in
                                        objects.items() if i not in listed])
     out += _listed("objects extra", [str(i) for i in listed if i not in objects])

@@ -11,8 +11,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 
 from plugins._picture_log import read_episode, title_lines
+from simhost._records import ExceptionEvent
 
 HALF = 2.0  # the arena's walls at ±2 m
 SCALE = 80  # pixels per metre
@@ -21,6 +23,17 @@ START, TARGET, MOVED = (40, 160, 40), (220, 0, 200), (220, 20, 20)
 STAGE_COLOURS = {"explore": (30, 90, 220), "reach": (240, 120, 0)}
 Colour = tuple[int, int, int]
 _LINE = 14  # pixels per line of size-2 text
+
+
+class _Drawn(BaseModel):
+    """What the picture draws of the hidden scenario (its ``params``; the rest ignored)."""
+
+    model_config = ConfigDict(frozen=True, extra="ignore")
+
+    start: list[float] | None = None
+    target: list[float] | None = None
+    moved_target: list[float] | None = None
+    """Where the exception moves the target (None: no exception)."""
 
 
 def _px(x: float, y: float) -> tuple[float, float]:
@@ -55,9 +68,9 @@ def path_png(episode_dir: str | Path) -> Path:
         raise FileNotFoundError(f"{mcap} does not exist: is {episode_dir} an episode folder?")
     log = read_episode(mcap, "position")
     scenario, points, events, total = log.scenario, log.poses, log.events, log.total
-    if scenario.get("track") != "sanity":
-        raise ValueError(f"{mcap} is a {scenario.get('track')!r} episode, not sanity")
-    params = scenario.get("params", {})
+    if scenario.track != "sanity":
+        raise ValueError(f"{mcap} is a {scenario.track!r} episode, not sanity")
+    params = _Drawn.model_validate(scenario.params)
     side = int(2 * HALF * SCALE) + 2 * MARGIN
     arena = np.full((side, side, 3), 255, np.uint8)
     lo, hi = MARGIN, MARGIN + int(2 * HALF * SCALE)
@@ -65,26 +78,25 @@ def path_png(episode_dir: str | Path) -> Path:
         arena[lo:hi, lo + k * SCALE] = arena[lo + k * SCALE, lo:hi] = (225, 225, 225)
     arena[lo:hi, lo:lo + 2] = arena[lo:hi, hi - 2:hi] = 0  # the walls
     arena[lo:lo + 2, lo:hi] = arena[hi - 2:hi, lo:hi] = 0
-    starts = sorted((t, e["stage"]) for t, e in events if e.get("event") == "stage_start")
+    starts = log.stage_starts()
     for k, (t0, stage) in enumerate(starts):
         t1 = starts[k + 1][0] if k + 1 < len(starts) else float("inf")
         # from the last point before the stage, so that the path has no gap
         before = [p for t, p in points if t < t0][-1:]
         _polyline(arena, before + [p for t, p in points if t0 <= t < t1],
                   STAGE_COLOURS.get(stage, (0, 0, 0)))
-    if params.get("start"):
-        _disc(arena, *params["start"], 6, START)
-    if params.get("target"):
-        _disc(arena, *params["target"], 0.5 * SCALE, TARGET, inner=0.5 * SCALE - 3)
-        _disc(arena, *params["target"], 4, TARGET)
-    moved = any(e.get("event") == "exception" for _, e in events)
-    if moved and params.get("moved_target"):
-        _disc(arena, *params["moved_target"], 0.5 * SCALE, MOVED, inner=0.5 * SCALE - 3)
-        _disc(arena, *params["moved_target"], 4, MOVED)
-    end = next((e.get("reason") for _, e in reversed(events)
-                if e.get("event") == "episode_end"), "unfinished")
+    if params.start:
+        _disc(arena, *params.start, 6, START)
+    if params.target:
+        _disc(arena, *params.target, 0.5 * SCALE, TARGET, inner=0.5 * SCALE - 3)
+        _disc(arena, *params.target, 4, TARGET)
+    moved = any(isinstance(e, ExceptionEvent) for _, e in events)
+    if moved and params.moved_target:
+        _disc(arena, *params.moved_target, 0.5 * SCALE, MOVED, inner=0.5 * SCALE - 3)
+        _disc(arena, *params.moved_target, 4, MOVED)
+    end = log.end_reason()
     score = "not scored" if total is None else f"score {100 * total:.1f}"
-    text = f"SANITY {scenario.get('split', '?')} seed {scenario.get('seed')}: {end}, {score}"
+    text = f"SANITY {scenario.split} seed {scenario.seed}: {end}, {score}"
     width = max(side, min(16 + 8 * len(text), 640))  # the title on one line where it can
     title = title_lines([text], width)
     legend: list[tuple[str, Colour]] = [("start", START), ("target", TARGET),

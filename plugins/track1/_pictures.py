@@ -21,6 +21,7 @@ import numpy as np
 
 from plugins._picture_log import read_episode, title_lines
 from plugins.track1._types import Task, Track1Scenario
+from simhost._records import ExceptionEvent, HostEventModel, ScenarioRecord
 
 ITEM, GOAL, EXCEPTION = (220, 0, 200), (0, 170, 210), (220, 20, 20)
 STAGE_COLOURS = {"exploration": (30, 90, 220), "planning": (120, 120, 120),
@@ -156,8 +157,8 @@ def preview(spec: Track1Scenario, seed: int, split: str, out_dir: str | Path) ->
     return [path]
 
 
-def _read_mcap(path: Path) -> tuple[dict[str, Any], list[tuple[int, list[float]]],
-                                    list[tuple[int, dict[str, Any]]], float | None]:
+def _read_mcap(path: Path) -> tuple[ScenarioRecord, list[tuple[int, list[float]]],
+                                    list[tuple[int, HostEventModel]], float | None]:
     log = read_episode(path, "odometry")
     return log.scenario, log.poses, log.events, log.total
 
@@ -171,27 +172,26 @@ def trajectory_png(episode_dir: str | Path) -> Path:
     mcap = host / "episode.mcap"
     if not mcap.is_file():
         raise FileNotFoundError(f"{mcap} does not exist: is {episode_dir} an episode folder?")
-    scenario, poses, events, total = _read_mcap(mcap)
-    if scenario.get("track") != "track1":
-        raise ValueError(f"{mcap} is a {scenario.get('track')!r} episode, not track1")
-    spec = Track1Scenario.model_validate(scenario["params"])
-    layout = generate_house(int(scenario["seed"]), params=spec.split.params)
+    log = read_episode(mcap, "odometry")
+    scenario, poses, total = log.scenario, log.poses, log.total
+    if scenario.track != "track1":
+        raise ValueError(f"{mcap} is a {scenario.track!r} episode, not track1")
+    spec = Track1Scenario.model_validate(scenario.params)
+    layout = generate_house(scenario.seed, params=spec.split.params)
     img = render_topdown(layout)
     overlay = _Overlay(img, layout.extent[1])
     _mark_task(overlay, layout, spec.task)
-    starts = sorted((t, e["stage"]) for t, e in events if e.get("event") == "stage_start")
+    starts = log.stage_starts()
     for k, (t0, stage) in enumerate(starts):
         t1 = starts[k + 1][0] if k + 1 < len(starts) else math.inf
         points = [(p[0], p[1]) for t, p in poses if t0 <= t < t1]
         overlay.polyline(points, STAGE_COLOURS.get(stage, (0, 0, 0)))
-    for _, e in events:
-        if e.get("event") == "exception" and e.get("pose"):
-            overlay.ring(e["pose"][0], e["pose"][1], EXCEPTION)
-    end = next((e.get("reason") for _, e in reversed(events)
-                if e.get("event") == "episode_end"), "unfinished")
+    for _, e in log.events:
+        if isinstance(e, ExceptionEvent) and e.pose:
+            overlay.ring(e.pose[0], e.pose[1], EXCEPTION)
+    end = log.end_reason()
     score = "not scored" if total is None else f"score {100 * total:.1f}"
-    split = scenario.get("split", "?")
-    title = [f"TRACK1 {split} seed {scenario['seed']}: {end}, {score}",
+    title = [f"TRACK1 {scenario.split} seed {scenario.seed}: {end}, {score}",
              *textwrap.wrap(f"task: {spec.task.text}", max(20, img.shape[1] // 8 - 2))]
     legend = _legend(("exception", EXCEPTION),
                      *((f"{s} path", c) for s, c in STAGE_COLOURS.items()))

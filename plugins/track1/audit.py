@@ -38,9 +38,17 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, ValidationError
 
 from plugins._audit import STEP_SLACK
-from schemas import LogRecord, WorldModel
+from schemas import ActionResult, HostMessage, LogRecord, WorldModel
+from simhost._records import (
+    ExceptionArmedEvent,
+    ExceptionEvent,
+    ExceptionObservableEvent,
+    HostEventModel,
+    parse_event,
+)
 
 Severity = Literal["flag", "warning", "note"]
 
@@ -56,6 +64,65 @@ HIDDEN_STATES = {"locked": "locked", "unavailable": "unavailable"}
 #: Message fields that carry an instance id, and those that carry room ids.
 ID_KEYS = frozenset({"object", "door", "container", "tool", "target", "item", "receptacle"})
 ROOM_KEYS = frozenset({"room", "rooms"})
+
+
+class _Read(BaseModel):
+    """What a check reads of a host record, an agent's value or a test's dict: the fields
+    it names (from a dict or a model's attributes), the rest ignored."""
+
+    model_config = ConfigDict(frozen=True, extra="ignore", from_attributes=True)
+
+
+class _Detection(_Read):
+    id: Any = None
+    state: Any = None
+
+
+class _Seen(_Read):
+    """An observation's JSON entries."""
+
+    detections: list[Any] | None = None
+
+
+class _Message(_Read):
+    """A host message (``HostMessage``, or its ``data`` alone)."""
+
+    data: Any = None
+
+
+class _Action(_Read):
+    """A Track 1 action (``primitive`` an index or a name; ``target``, ``tool`` ids)."""
+
+    primitive: Any = None
+    target: Any = None
+    tool: Any = None
+
+
+class _Result(_Read):
+    reason: Any = ""
+
+
+class _GoalRef(_Read):
+    kind: Any = None
+    object: Any = None
+    receptacle: Any = None
+    tool: Any = None
+
+
+class _TaskRef(_Read):
+    goals: list[_GoalRef] | None = None
+
+
+class _PlannedRef(_Read):
+    type: Any = None
+    goal: Any = None
+
+
+class _Plan(_Read):
+    """What the checks read of the hidden scenario's params (``Track1Scenario``)."""
+
+    exception: _PlannedRef | None = None
+    task: _TaskRef | None = None
 
 
 @dataclass(frozen=True)
@@ -107,11 +174,15 @@ class Shown:
     def observe(self, step: int, data: Mapping[str, Any],
                 tensors: Mapping[str, Any]) -> None:
         """One observation: its JSON entries and (any of) its tensors."""
-        for d in data.get("detections") or ():
-            if isinstance(d, Mapping) and _as_id(d.get("id")) is not None:
-                self._id(d["id"], step)
-                if isinstance(d.get("state"), str):
-                    self._state(int(d["id"]), d["state"], step)
+        for entry in _Seen.model_validate(data).detections or ():
+            if not isinstance(entry, Mapping):
+                continue
+            d = _Detection.model_validate(entry)
+            i = _as_id(d.id)
+            if i is not None:
+                self._id(i, step)
+                if isinstance(d.state, str):
+                    self._state(i, d.state, step)
         for name in ("det_id", "held", "segmentation"):
             if name in tensors:
                 for i in np.unique(np.asarray(tensors[name], dtype=np.int64)).tolist():
@@ -120,7 +191,7 @@ class Shown:
             for r in np.asarray(tensors["room"], dtype=np.int64).ravel().tolist():
                 self._room(r, step)
 
-    def message(self, step: int, message: Mapping[str, Any]) -> None:
+    def message(self, step: int, message: HostMessage | Mapping[str, Any]) -> None:
         """One host message (instruction, queries, …): the ids and rooms it names."""
 
         def walk(value: Any, key: str | None) -> None:
@@ -135,18 +206,18 @@ class Shown:
             elif key in ROOM_KEYS:
                 self._room(value, step)
 
-        walk(message.get("data", {}), None)
+        walk(_Message.model_validate(message).data, None)
 
     def action(self, step: int, action: Mapping[str, Any],
-               result: Mapping[str, Any] | None) -> None:
+               result: ActionResult | Mapping[str, Any] | None) -> None:
         """One action and its result (``{ok, reason}``), ``step`` the one it made."""
-        p = action.get("primitive")
-        i = _as_id(p)
-        name = PRIMITIVES[i] if i is not None and 0 <= i < len(PRIMITIVES) else p
+        act = _Action.model_validate(action)
+        i = _as_id(act.primitive)
+        name = PRIMITIVES[i] if i is not None and 0 <= i < len(PRIMITIVES) else act.primitive
         if name not in TARGETED or result is None:
             return
-        reason = str(result.get("reason") or "")
-        targets = [action.get("target")] + ([action.get("tool")] if name == "use" else [])
+        reason = str(_Result.model_validate(result).reason or "")
+        targets = [act.target] + ([act.tool] if name == "use" else [])
         for t in targets:
             i = _as_id(t)
             if i is None or reason in SILENT_REASONS:
@@ -259,38 +330,46 @@ class Timeline:
 
     @classmethod
     def from_log(cls, scenario_params: Mapping[str, Any],
-                 events: Iterable[Mapping[str, Any]]) -> Timeline:
-        """From the scenario's params and the episode's events, in log order."""
-        plan = scenario_params.get("exception") or {}
-        planned = plan.get("type")
-        subject = _planned_subject(scenario_params)
+                 events: Iterable[HostEventModel | Mapping[str, Any]]) -> Timeline:
+        """From the scenario's params and the episode's events, in log order (the
+        ``/eagc/event`` records, as models or as written)."""
+        params = _Plan.model_validate(scenario_params)
+        planned = params.exception.type if params.exception is not None else None
+        subject = _planned_subject(params)
         happened = step = effect = None
         for e in events:
-            if e.get("event") == "exception_armed":
-                armed = next((e[k] for k in ("door", "container", "subject") if k in e), None)
-                subject = _as_id(armed) if _as_id(armed) is not None else subject
-            elif e.get("event") == "exception":
-                happened, step = e.get("type"), _as_id(e.get("step"))
-                subject = _as_id(e.get("subject")) if e.get("subject") is not None else subject
-            elif e.get("event") == "exception_observable" and effect is None:
-                effect = _as_id(e.get("step"))
+            match e if isinstance(e, BaseModel) else _event(e):
+                case ExceptionArmedEvent() as armed if armed.armed_on is not None:
+                    subject = armed.armed_on
+                case ExceptionEvent() as applied:
+                    happened, step = applied.type, applied.step
+                    subject = applied.subject if applied.subject is not None else subject
+                case ExceptionObservableEvent() as seen if effect is None:
+                    effect = seen.step
         return cls(planned=planned, happened=happened, step=step, effect_step=effect,
                    subject=subject)
 
 
-def _planned_subject(params: Mapping[str, Any]) -> int | None:
+def _event(data: Mapping[str, Any]) -> HostEventModel | None:
+    """An event as written (a dict) as its model; None for one that does not read."""
+    try:
+        return parse_event(dict(data))
+    except ValidationError:
+        return None
+
+
+def _planned_subject(params: _Plan) -> int | None:
     """What the planned exception would change, as far as the plan says (a door to lock is
     chosen only as execution starts)."""
-    plan = params.get("exception") or {}
-    goals = (params.get("task") or {}).get("goals") or []
-    k = _as_id(plan.get("goal"))
-    if k is None or not 0 <= k < len(goals):
+    plan, goals = params.exception, (params.task.goals if params.task else None) or []
+    k = _as_id(plan.goal) if plan is not None else None
+    if plan is None or k is None or not 0 <= k < len(goals):
         return None
     g = goals[k]
-    if plan.get("type") == "container_unavailable":
-        return _as_id(g.get("receptacle"))
-    if plan.get("type") in ("object_relocation", "tool_substitution"):
-        return _as_id(g.get("object") if g.get("kind") == "place" else g.get("tool"))
+    if plan.type == "container_unavailable":
+        return _as_id(g.receptacle)
+    if plan.type in ("object_relocation", "tool_substitution"):
+        return _as_id(g.object if g.kind == "place" else g.tool)
     return None
 
 
@@ -353,14 +432,16 @@ class Snapshot:
 
 
 def check_episode(shown: Shown, *, scenario_params: Mapping[str, Any],
-                  events: Sequence[Mapping[str, Any]], snapshots: Sequence[Snapshot],
+                  events: Sequence[HostEventModel | Mapping[str, Any]],
+                  snapshots: Sequence[Snapshot],
                   log: Sequence[LogRecord]) -> list[Flag]:
     """Every check of this module on one episode.
 
     Args:
         shown: what the agent was shown (fed from the whole episode).
         scenario_params: the hidden scenario's params (``/eagc/scenario``).
-        events: the host's events in log order (``/eagc/event``).
+        events: the host's events in log order (``/eagc/event``, as models or as
+            written).
         snapshots: the files at each stage end and at the end, in time order.
         log: the final ``episode_log.jsonl`` records.
     """

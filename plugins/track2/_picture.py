@@ -9,65 +9,79 @@ same source and seed give the same packet) when that folder is gone.
 
 from __future__ import annotations
 
-import json
 import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 
 from plugins.track2._episode import DEMO_FOLDER, EXECUTION
 from plugins.track2._scenario import Track2Scenario
+from schemas import EpisodeResult, ErrorReply, HelloReply, ObservationReply
+from simhost._records import (
+    AttemptEndEvent,
+    McapRecordError,
+    ScenarioRecord,
+    SmallTensors,
+    read_records,
+)
 
 #: The widest title the picture holds (8 pixels a character, 12 of margin each side).
 TITLE_CHARS = 82
 
 
+class _Titled(BaseModel):
+    """What the title reads of the hidden scenario (``Track2Scenario``'s fields, read
+    without the rest, so that a title is drawn for any version of it)."""
+
+    model_config = ConfigDict(frozen=True, extra="ignore")
+
+    family: str = ""
+    max_attempts: int = 3
+
+
 def _read_log(
     mcap: Path,
-) -> tuple[dict[str, Any], dict[int, list[list[float]]], int | None, float | None]:
+) -> tuple[ScenarioRecord, dict[int, list[list[float]]], int | None, float | None]:
     """The scenario, the hand's path per attempt, the attempt that succeeded and the
     episode's score (0-1, from its EpisodeResult; None before it was scored)."""
-    from mcap.reader import make_reader
-
-    from schemas import EpisodeResult
-
-    scenario: dict[str, Any] = {}
+    scenario: ScenarioRecord | None = None
     total: float | None = None
     won: int | None = None
     paths: dict[int, list[list[float]]] = {}
     current: int | None = None
-    with mcap.open("rb") as f:
-        for _, channel, message in make_reader(f).iter_messages(log_time_order=False):
-            topic = channel.topic
-            if topic == "/eagc/scenario":
-                scenario = json.loads(message.data)
-            elif topic == "/eagc/score":  # the episode's EpisodeResult
-                total = EpisodeResult.model_validate_json(message.data).score.total
-            elif topic == "/eagc/reply":
-                reply = json.loads(message.data)
+    for record in read_records(mcap, log_time_order=False):
+        match record.body:
+            case ScenarioRecord() as scenario:
+                pass
+            case EpisodeResult() as result:
+                total = result.score.total
+            case HelloReply() | ErrorReply():
                 current = None
-                if reply.get("kind") == "observation" and reply.get("stage") == EXECUTION:
-                    current = int((reply.get("observation") or {}).get("attempt") or 0) or None
-            elif topic == "/eagc/event":
-                ev = json.loads(message.data)
-                if ev.get("event") == "attempt_end" and ev.get("success"):
-                    won = int(ev["index"])
-            elif topic == "/eagc/observation" and current is not None:
-                proprio = json.loads(message.data).get("proprio")
+            case ObservationReply() as reply:
+                current = None
+                if reply.stage == EXECUTION:
+                    current = int(reply.observation.get("attempt") or 0) or None
+            case AttemptEndEvent() as ended if ended.success:
+                won = ended.index
+            case SmallTensors() as tensors if current is not None:
+                proprio = tensors.vector("proprio")
                 if proprio:
-                    paths.setdefault(current, []).append([float(x) for x in proprio[:3]])
+                    paths.setdefault(current, []).append(proprio[:3])
+    if scenario is None:
+        raise McapRecordError(f"{mcap}: no /eagc/scenario message: not an eagc episode log")
     return scenario, paths, won, total
 
 
-def _title(scenario: dict[str, Any], k: int, won: int | None, total: float | None) -> str:
+def _title(scenario: ScenarioRecord, k: int, won: int | None, total: float | None) -> str:
     """Track, seed, split, family, the attempt and the score, within ``TITLE_CHARS``."""
-    hidden = scenario.get("params") or {}
+    hidden = _Titled.model_validate(scenario.params)
     score = "NOT SCORED" if total is None else f"SCORE {100 * total:.1f}/100"
-    head = f"TRACK2 SEED {scenario.get('seed')} {str(scenario.get('split')).upper()}"
-    family = str(hidden.get("family", "")).upper().replace("_", " ")
+    head = f"TRACK2 SEED {scenario.seed} {scenario.split.upper()}"
+    family = hidden.family.upper().replace("_", " ")
     verdict = "SUCCEEDED" if k == won else "FAILED"
-    n = hidden.get("max_attempts", 3)
+    n = hidden.max_attempts
     for attempt in (f"ATTEMPT {k} OF {n} {verdict}", f"ATT {k}/{n} {verdict}"):
         title = f"{head} {family} {attempt} {score}"
         if len(title) <= TITLE_CHARS:
@@ -132,8 +146,8 @@ def attempt_png(
     if not mcap.is_file():
         raise FileNotFoundError(f"{mcap} does not exist: is {root} an episode folder?")
     scenario, paths, won, total = _read_log(mcap)
-    if scenario.get("track") != "track2":
-        raise ValueError(f"{root} is a {scenario.get('track')!r} episode, not track2")
+    if scenario.track != "track2":
+        raise ValueError(f"{root} is a {scenario.track!r} episode, not track2")
     if not paths:
         raise ValueError(f"{root}: the agent never reached the execution stage; nothing to draw")
     k = attempt or won or max(paths)
@@ -146,7 +160,7 @@ def attempt_png(
     if (demo / "manifest.json").is_file():
         _draw(demo, attempt_xyz, out, title)
         return out
-    hidden = Track2Scenario.model_validate(scenario["params"])
+    hidden = Track2Scenario.model_validate(scenario.params)
     with tempfile.TemporaryDirectory() as tmp:
         write_demo_packet(Path(tmp) / DEMO_FOLDER, hidden.source, seed=hidden.demo_seed,
                           config=hidden.bench, frames=hidden.demo_frames)

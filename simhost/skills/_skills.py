@@ -9,7 +9,7 @@ agent's own, from what the host sent it and nothing else.
 from __future__ import annotations
 
 import math
-from collections.abc import Generator, Mapping
+from collections.abc import Callable, Generator, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -93,6 +93,8 @@ class Skills:
         reserve_s: ... or this many seconds.
         attempts: How many times an action is tried after ``out_of_reach``,
             ``not_visible`` or ``blocked_by_robot``.
+        on_reply: Called with every reply the skills take, after the map has it (to log,
+            or to notice what the agent's own rules look for).
 
     Attributes:
         ts: The latest reply. ``explorer``: the map and model (``explorer.model``, a
@@ -101,8 +103,10 @@ class Skills:
     """
 
     def __init__(self, env: RemoteEnv, ts: TimeStep, *, explorer: Explorer | None = None,
-                 reserve_steps: int = 2, reserve_s: float = 5.0, attempts: int = 4) -> None:
+                 reserve_steps: int = 2, reserve_s: float = 5.0, attempts: int = 4,
+                 on_reply: Callable[[TimeStep], None] | None = None) -> None:
         self.env = env
+        self.on_reply = on_reply
         self.explorer = explorer if explorer is not None else Explorer()
         self.reserve_steps, self.reserve_s, self.attempts = reserve_steps, reserve_s, attempts
         self.messages: list[Any] = []
@@ -124,6 +128,8 @@ class Skills:
         if "odometry" in ts.observation:
             self.explorer.sense(ts.observation)
         self._learn(ts)
+        if self.on_reply is not None:
+            self.on_reply(ts)
 
     def step(self, action: Mapping[str, Any]) -> TimeStep:
         """Sends one action and takes its reply (``env.step``)."""

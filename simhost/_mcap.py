@@ -28,7 +28,10 @@ and, so that Foxglove shows the episode (its own schemas, JSON-encoded):
 - ``/trajectory/<frame>``  ``foxglove.PosesInFrame``: each frame's whole path (once, at the
                            end), so that the 3D panel draws the trajectory
 
-A frame's step is that of the last ``/eagc/state_hash`` before it.
+A frame's step is that of the last ``/eagc/state_hash`` before it. ``simhost._records``
+reads every record back as its model; the state hashes, camera images and trajectories are
+written from those models (the per-step transforms and the replies, on the host's hot path,
+as plain dicts of the same fields).
 
 Cost: images only at a low rate (PNG at zlib level 1), one small transform message per
 step, a hash every step and the full state every N steps (the host's ``full_state_every``).
@@ -50,6 +53,16 @@ from mcap.writer import CompressionType, Writer
 from simhost._episode import Observation, Pose
 from simhost._host import EpisodeRecorder
 from simhost._png import encode_png
+from simhost._records import (
+    CompressedImage,
+    PoseJson,
+    PosesInFrame,
+    Quaternion,
+    RawImage,
+    StateHash,
+    Time,
+    Vector3,
+)
 
 WORLD_FRAME = "world"
 _MAX_TRAJECTORY = 4096  # poses kept per frame for /trajectory (evenly thinned beyond it)
@@ -118,9 +131,16 @@ def segmentation_colours(ids: np.ndarray) -> np.ndarray:
 
 
 def _pose_json(p: Pose) -> dict[str, Any]:
+    """``foxglove.Pose`` as a dict (every step: cheaper than the model)."""
     (x, y, z), (w, qx, qy, qz) = p.position, p.orientation
     return {"position": {"x": x, "y": y, "z": z},
             "orientation": {"x": qx, "y": qy, "z": qz, "w": w}}
+
+
+def _pose_model(p: Pose) -> PoseJson:
+    (x, y, z), (w, qx, qy, qz) = p.position, p.orientation
+    return PoseJson(position=Vector3(x=x, y=y, z=z),
+                    orientation=Quaternion(x=qx, y=qy, z=qz, w=w))
 
 
 class McapRecorder(EpisodeRecorder):
@@ -191,6 +211,9 @@ class McapRecorder(EpisodeRecorder):
         sec, nsec = divmod(self._wall0 + int(t * 1e9), 1_000_000_000)
         return {"sec": sec, "nsec": nsec}
 
+    def _time(self, t: float) -> Time:
+        return Time.model_validate(self._stamp(t))
+
     # EpisodeRecorder
     def request(self, t: float, kind: str, stage: str | None, data: Mapping[str, Any]) -> None:
         self.write_json("/eagc/request", t, {"kind": kind, "stage": stage, **data})
@@ -221,34 +244,34 @@ class McapRecorder(EpisodeRecorder):
             self._images(t, obs.tensors)
 
     def _images(self, t: float, tensors: Mapping[str, np.ndarray]) -> None:
-        stamp = self._stamp(t)
+        stamp = self._time(t)
         rgb = tensors.get("rgb")
         if rgb is not None and rgb.dtype == np.uint8 and rgb.ndim == 3 and rgb.shape[2] == 3:
             self._png("/camera/rgb", t, stamp, rgb)
         depth = tensors.get("depth")
         if depth is not None and depth.ndim == 2:
             d = np.ascontiguousarray(depth, dtype="<f4")
-            self.write_json("/camera/depth", t, {
-                "timestamp": stamp, "frame_id": "camera", "width": d.shape[1],
-                "height": d.shape[0], "encoding": "32FC1", "step": d.shape[1] * 4,
-                "data": base64.b64encode(d.tobytes()).decode(),
-            }, "foxglove.RawImage")
+            self.write_json("/camera/depth", t, RawImage(
+                timestamp=stamp, frame_id="camera", width=d.shape[1], height=d.shape[0],
+                encoding="32FC1", step=d.shape[1] * 4,
+                data=base64.b64encode(d.tobytes()).decode(),
+            ), "foxglove.RawImage")
         seg = tensors.get("segmentation")
         if seg is not None and seg.ndim == 2 and seg.dtype.kind in "iu":
             self._png("/camera/segmentation", t, stamp, segmentation_colours(seg))
 
-    def _png(self, topic: str, t: float, stamp: dict[str, int], image: np.ndarray) -> None:
-        self.write_json(topic, t, {
-            "timestamp": stamp, "frame_id": "camera", "format": "png",
-            "data": base64.b64encode(encode_png(image, level=1)).decode(),
-        }, "foxglove.CompressedImage")
+    def _png(self, topic: str, t: float, stamp: Time, image: np.ndarray) -> None:
+        self.write_json(topic, t, CompressedImage(
+            timestamp=stamp, frame_id="camera", format="png",
+            data=base64.b64encode(encode_png(image, level=1)).decode(),
+        ), "foxglove.CompressedImage")
 
     def event(self, t: float, name: str, data: Mapping[str, Any]) -> None:
         self.write_json("/eagc/event", t, {"event": name, **data})
 
     def state(self, t: float, step: int, state_hash: str, state: bytes | None) -> None:
         self._step = step
-        self.write_json("/eagc/state_hash", t, {"step": step, "hash": state_hash})
+        self.write_json("/eagc/state_hash", t, StateHash(step=step, hash=state_hash))
         if state:
             self.write_raw("/eagc/state", t, state)
 
@@ -270,12 +293,11 @@ class McapRecorder(EpisodeRecorder):
         self.write_json("/tf", t, {"transforms": transforms}, "foxglove.FrameTransforms")
 
     def _write_trajectories(self) -> None:
-        stamp = self._stamp(self._last_pose_t)
+        stamp = self._time(self._last_pose_t)
         for name, path in self._trajectories.items():
-            self.write_json(f"/trajectory/{name}", self._last_pose_t, {
-                "timestamp": stamp, "frame_id": WORLD_FRAME,
-                "poses": [_pose_json(p) for p in path],
-            }, "foxglove.PosesInFrame")
+            self.write_json(f"/trajectory/{name}", self._last_pose_t, PosesInFrame(
+                timestamp=stamp, frame_id=WORLD_FRAME, poses=[_pose_model(p) for p in path],
+            ), "foxglove.PosesInFrame")
 
     def close(self) -> None:
         if not self.closed and self._trajectories:

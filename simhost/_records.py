@@ -29,10 +29,10 @@ topic                      body of each ``Record``
 
 ``read_records(path)`` yields each message as a ``Record`` (topic, log time, body); a
 topic not listed is skipped. A record that is not JSON, or not the shape its topic has,
-raises ``McapRecordError`` with one line that names the file, the topic, the time and the
-field (or, given ``on_problem``, is reported to it and skipped), as does a file that is not
-a readable MCAP log. Records keep fields they do not declare (``extra``), so that a log
-written by a later version still reads.
+raises ``McapRecordError`` with one line that names the file, the topic, the time (from
+the first message read) and the field (or, given ``on_problem``, is reported to it and
+skipped), as does a file that is not a readable MCAP log. Records keep fields they do not
+declare (``extra``), so that a log written by a later version still reads.
 """
 
 from __future__ import annotations
@@ -479,7 +479,7 @@ TOPICS = (*_JSON, "/eagc/observation", "/eagc/state", "/eagc/file/<stage>/<name>
 
 def _problem(e: ValidationError) -> str:
     first, *rest = describe(e)
-    return first + (f" (and {len(rest)} more)" if rest else "")
+    return first.removeprefix("(top level): ") + (f" (and {len(rest)} more)" if rest else "")
 
 
 def _decode(topic: str, data: bytes) -> Any:
@@ -524,20 +524,22 @@ def read_records(path: Path | str, topics: Iterable[str] | None = None, *,
 
     path = Path(path)
     wanted = None if topics is None else list(topics)
+    start: int | None = None  # the log's first time: the recorder's 0 s
     try:
         with path.open("rb") as f:
             messages = make_reader(f).iter_messages(topics=wanted,
                                                     log_time_order=log_time_order)
             for _, channel, message in messages:
                 topic, t = channel.topic, message.log_time
+                start = t if start is None else min(start, t)
                 try:
                     body = _decode(topic, message.data)
                 except (ValueError, TypeError) as e:  # not JSON, or not the model
                     why = _problem(e) if isinstance(e, ValidationError) else (
                         f"not JSON ({str(e).splitlines()[0] if str(e) else type(e).__name__})")
                     problem = McapRecordError(
-                        f"{path}: the {topic} record at {t / 1e9:.3f} s is not one of "
-                        f"eagc's: {why}")
+                        f"{path}: the {topic} record at {(t - start) / 1e9:.3f} s is not "
+                        f"one of eagc's: {why}")
                     if on_problem is None:
                         raise problem from None
                     on_problem(problem)

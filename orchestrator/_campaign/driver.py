@@ -430,12 +430,11 @@ class Driver:
 
     def _update_states(self) -> None:
         c = self.store.counts(self.name)
-        held, _ = c.pop("quarantined"), c.pop("retries")
-        done = sum(c.values())
         planned = self.report.planned
         self.metrics.set_states({
-            "planned": planned, "done": done, "failed": done - c.get("completed", 0),
-            "quarantined": held, "remaining": max(0, planned - done - held),
+            "planned": planned, "done": c.done, "failed": c.done - c.completed,
+            "quarantined": c.quarantined,
+            "remaining": max(0, planned - c.done - c.quarantined),
         })
 
     # ------------------------------------------------------------------ endings

@@ -160,7 +160,7 @@ def rebuild_store(spec: CampaignSpec, folder: Path, store_file: Path, *, commitm
                                  retries=ev.retry)
                 report.quarantined += 1
         store.retally()
-        report.attempts = store.counts(spec.name)["retries"]
+        report.attempts = store.counts(spec.name).retries
     return report
 
 

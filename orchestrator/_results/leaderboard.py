@@ -37,6 +37,9 @@ from orchestrator._results import intervals as iv
 from plugins import Column, TrackPlugin, load_track
 from schemas import CampaignSpec, EpisodeResult
 
+#: The column of the final (eq. 2): every track's summary holds it.
+FINAL = "final"
+
 
 def held_back(retried: int, allowed: int) -> str:
     """What a team reads about its quarantined episode: retried as the campaign allows."""
@@ -77,6 +80,11 @@ class Row:
     intervals: dict[str, iv.Interval] = field(default_factory=dict)
 
     @property
+    def final(self) -> float | None:
+        """The final (eq. 2) on a 0-100 scale; None until every split has a score."""
+        return self.values.get(FINAL)
+
+    @property
     def ranks(self) -> str:
         """``1-3``, ``2`` (one rank only) or ``—``."""
         if self.rank_range is None:
@@ -108,7 +116,7 @@ class Leaderboard:
 
     def _with_ci(self) -> list[Column]:
         """The columns with the final's interval right after the final."""
-        at = next(i for i, c in enumerate(self.columns) if c.key == "final")
+        at = next(i for i, c in enumerate(self.columns) if c.key == FINAL)
         return [*self.columns[: at + 1], Column(CI_KEY, "95% CI"), *self.columns[at + 1:]]
 
     def cell(self, row: Row, col: Column) -> str:
@@ -116,7 +124,7 @@ class Leaderboard:
             return row.ci
         v = row.values.get(col.key)
         text = "—" if v is None else cell_text(v, col.fmt)
-        if col.key == "final" and row.state != "final":
+        if col.key == FINAL and row.state != "final":
             text += f" ({row.state})"
         return text
 
@@ -190,7 +198,7 @@ class Leaderboard:
                 for c in self._with_ci()]
         cols.append(TextColumn("Episodes", tuple(f"{r.episodes}/{r.planned}"
                                                  for r in self.rows)))
-        first = next(i for i, c in enumerate(self.columns) if c.key == "final")
+        first = next(i for i, c in enumerate(self.columns) if c.key == FINAL)
         lines = layout(f"{self.campaign} · {self.track} · phase {self.phase} (scores 0-100)", key,
                        cols, first, limit, lead=2)
         lines += ["", *wrapped(LEGEND, limit)]
@@ -255,9 +263,9 @@ def _columns(spec: CampaignSpec, plugin: TrackPlugin) -> list[Column]:
     splits = [Column(s.name, s.name.replace("_", " ").title()) for s in spec.splits
               if s.name not in keys] if len(spec.splits) > 1 else []
     cols = list(plugin.columns)
-    if "final" not in keys:
-        cols.insert(0, Column("final", "Final"))
-    at = next(i for i, c in enumerate(cols) if c.key == "final")
+    if FINAL not in keys:
+        cols.insert(0, Column(FINAL, "Final"))
+    at = next(i for i, c in enumerate(cols) if c.key == FINAL)
     return cols[:at] + splits + cols[at:]
 
 
@@ -273,7 +281,7 @@ def _final(spec: CampaignSpec, plugin: TrackPlugin, row: dict[str, float | None]
         return
     weights = split_weights(spec, plugin)
     total = sum(weights.values())
-    row["final"] = sum(w * (row[s] or 0.0) for s, w in weights.items()) / total
+    row[FINAL] = sum(w * (row[s] or 0.0) for s, w in weights.items()) / total
 
 
 def _rank_key(row: Row, keys: list[str], lower: dict[str, bool]) -> tuple[Any, ...]:
@@ -300,7 +308,7 @@ def build_leaderboard(spec: CampaignSpec, store: Any) -> Leaderboard:
         rows.append(Row(sub.team, dict(values), state, len(mine), planned, n_held))
     columns = _columns(spec, plugin)
     lower = {c.key: c.lower_is_better for c in columns}
-    keys = ["final", *plugin.tie_breaks]
+    keys = [FINAL, *plugin.tie_breaks]
     rows.sort(key=lambda r: (_rank_key(r, keys, lower), r.team))
     for i, r in enumerate(rows):
         same = i > 0 and _rank_key(r, keys, lower) == _rank_key(rows[i - 1], keys, lower)
@@ -361,7 +369,7 @@ def _uncertainty(spec: CampaignSpec, plugin: TrackPlugin, rows: list[Row],
             if got is not None and row.values.get(key) is not None:
                 row.intervals[key] = got
     ranked = [t for t, (row, f) in enumerate(zip(rows, finals, strict=True))
-              if f is not None and row.values.get("final") is not None]
+              if f is not None and row.final is not None]
     for t in ranked:
         rows[t].interval = finals[t]
     if len(ranked) < 2:

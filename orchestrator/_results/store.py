@@ -26,13 +26,13 @@ from __future__ import annotations
 
 import sqlite3
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from orchestrator._errors import OrchestratorError
-from schemas import CampaignSpec, EpisodeResult
+from schemas import CampaignSpec, EpisodeResult, EpisodeStatus
 
 SCHEMA_VERSION = 2  # 2: tallies
 REBUILD = "eagc campaign rebuild-store CAMPAIGN.yaml"
@@ -96,6 +96,28 @@ class EpisodeKey:
 
     def __str__(self) -> str:
         return f"{self.submission}/{self.split}/{self.index}"
+
+
+@dataclass(frozen=True)
+class Tallies:
+    """A campaign's counts, kept as each row is written (``ResultsStore.counts``)."""
+
+    #: Committed episodes by status (statuses with none are left out).
+    by_status: Mapping[EpisodeStatus, int] = field(default_factory=dict)
+    #: Episodes held back after their last retry failed.
+    quarantined: int = 0
+    #: Infrastructure failures recorded (each one retried or quarantined).
+    retries: int = 0
+
+    @property
+    def done(self) -> int:
+        """Episodes with a final result."""
+        return sum(self.by_status.values())
+
+    @property
+    def completed(self) -> int:
+        """Episodes that completed (the rest of ``done`` failed)."""
+        return self.by_status.get(EpisodeStatus.COMPLETED, 0)
 
 
 @dataclass(frozen=True)
@@ -316,18 +338,21 @@ class ResultsStore:
         return [StoredEpisode(EpisodeKey(s, sp, i), EpisodeResult.model_validate_json(r), n,
                               node, t) for s, sp, i, r, n, node, t in rows]
 
-    def counts(self, campaign: str) -> dict[str, int]:
-        """Committed episodes by status, plus ``quarantined`` and ``retries`` (kept as each
+    def counts(self, campaign: str) -> Tallies:
+        """Committed episodes by status, quarantined episodes and retries (kept as each
         row is written: the cost does not grow with the campaign)."""
-        out = {"quarantined": 0, "retries": 0}
+        by_status: dict[EpisodeStatus, int] = {}
+        other: dict[str, int] = {}
         for name, n in self.db.execute("SELECT name, n FROM tallies WHERE campaign=?",
                                        (campaign,)):
-            if name.startswith("status:"):
+            status = name.removeprefix("status:")
+            if status != name:
                 if n:
-                    out[name.removeprefix("status:")] = int(n)
+                    by_status[EpisodeStatus(status)] = int(n)
             else:
-                out[name] = int(n)
-        return out
+                other[name] = int(n)
+        return Tallies(by_status, quarantined=other.pop("quarantined", 0),
+                       retries=other.pop("retries", 0))
 
     def retally(self) -> None:
         """Recomputes every count from the rows (after a rebuild or a repair by hand)."""

@@ -69,7 +69,7 @@ class TeamReport:
         from orchestrator._results.text import TextColumn, table_lines, width, wrapped
 
         limit = limit or width()
-        final = self.row.values.get("final")
+        final = self.row.final
         score = "—" if final is None else f"{final:.1f}"
         if self.row.interval is not None:
             score += f" (95% CI {self.row.interval.text()})"

@@ -83,7 +83,7 @@ def killed_attempts(runs: Path, *, keep_logs: bool = False) -> list[Path]:
 def cleanup(*, campaign: str | None = None, runs: Path | None = None, dry_run: bool = False,
             keep_logs: bool = False, client: Any = None) -> CleanupPlan:
     """Removes (or, ``dry_run``, lists) what dead episodes left; see the module doc."""
-    from orchestrator._runtimes.local import kill_local_agents, local_agents
+    from orchestrator._runtimes.local import LocalMark, kill_local_agents, local_agents
 
     plan = CleanupPlan()
     # Containers.
@@ -112,14 +112,12 @@ def cleanup(*, campaign: str | None = None, runs: Path | None = None, dry_run: b
     # Local agents.
     labels = {} if campaign is None else {"campaign": campaign}
 
-    def dead(mark: dict[str, object]) -> bool:
-        hb = mark.get("heartbeat")
-        return campaign is not None or _dead(hb if isinstance(hb, str) else None, local=True)
+    def dead(mark: LocalMark) -> bool:
+        return campaign is not None or _dead(mark.heartbeat, local=True)
 
     if dry_run:
         for pid, mark in local_agents():
-            have = mark.get("labels") or {}
-            if isinstance(have, dict) and all(have.get(k) == v for k, v in labels.items()):
+            if mark.matches(labels):
                 if dead(mark):
                     plan.local_agents.append(f"pid {pid}")
                 else:

@@ -15,7 +15,6 @@ be delivered, e.g. one started before this change).
 from __future__ import annotations
 
 import ctypes
-import json
 import logging
 import os
 import resource
@@ -29,6 +28,8 @@ from collections import deque
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
+from pydantic import BaseModel, ConfigDict, ValidationError
+
 from orchestrator._runtimes.interface import (
     AgentHandle,
     AgentLaunch,
@@ -40,9 +41,24 @@ from schemas import ContainerExit
 
 log = logging.getLogger("eagc.local")
 
-#: The environment variable that marks a local agent (JSON: labels, heartbeat).
+#: The environment variable that marks a local agent (a ``LocalMark`` as JSON).
 MARK = "EAGC_LOCAL_AGENT"
 _PR_SET_PDEATHSIG = 1
+
+
+class LocalMark(BaseModel):
+    """What marks a local agent, in its environment (``MARK``): how ``cleanup`` finds it."""
+
+    model_config = ConfigDict(frozen=True, extra="ignore")
+
+    #: The launch's labels and its episode id (``episode``).
+    labels: dict[str, str] = {}
+    #: The episode's heartbeat file (None: none; ``orchestrator._runtimes.reaper``).
+    heartbeat: str | None = None
+
+    def matches(self, labels: Mapping[str, str]) -> bool:
+        """True when the agent's labels include every one of ``labels``."""
+        return all(self.labels.get(k) == v for k, v in labels.items())
 
 
 def _die_with_parent(parent: int) -> None:
@@ -171,9 +187,10 @@ class LocalProcessRuntime(AgentRuntime):
             )
         )
         env["HOME"] = os.environ.get("HOME", "/tmp")
-        env[MARK] = json.dumps({"labels": {"episode": launch.episode, **launch.labels},
-                                "heartbeat": None if launch.heartbeat is None
-                                else str(launch.heartbeat)})
+        env[MARK] = LocalMark(
+            labels={"episode": launch.episode, **launch.labels},
+            heartbeat=None if launch.heartbeat is None else str(launch.heartbeat),
+        ).model_dump_json()
         memory = launch.limits.memory_mb * 1024 * 1024
         cores = {int(c) for c in launch.cpuset.split(",")} if launch.cpuset else set()
 
@@ -205,7 +222,7 @@ class LocalProcessRuntime(AgentRuntime):
         return [f"pid {pid}" for pid, _ in kill_local_agents(labels or {})]
 
 
-def local_agents() -> list[tuple[int, dict[str, object]]]:
+def local_agents() -> list[tuple[int, LocalMark]]:
     """(pid, mark) of every local agent on this machine that we may signal."""
     found = []
     for d in Path("/proc").iterdir():
@@ -218,21 +235,21 @@ def local_agents() -> list[tuple[int, dict[str, object]]]:
         for item in environ.split(b"\0"):
             if item.startswith(MARK.encode() + b"="):
                 try:
-                    found.append((int(d.name), json.loads(item[len(MARK) + 1:])))
-                except ValueError:
+                    found.append((int(d.name), LocalMark.model_validate_json(
+                        item[len(MARK) + 1:])))
+                except ValidationError:  # not a mark this eagc wrote
                     pass
                 break
     return found
 
 
 def kill_local_agents(labels: Mapping[str, str], *,
-                      only: Callable[[dict[str, object]], bool] | None = None
-                      ) -> list[tuple[int, dict[str, object]]]:
+                      only: Callable[[LocalMark], bool] | None = None
+                      ) -> list[tuple[int, LocalMark]]:
     """SIGKILLs the process group of each local agent matching ``labels`` (and ``only``)."""
     killed = []
     for pid, mark in local_agents():
-        have = mark.get("labels") or {}
-        if not isinstance(have, dict) or any(have.get(k) != v for k, v in labels.items()):
+        if not mark.matches(labels):
             continue
         if only is not None and not only(mark):
             continue

@@ -315,11 +315,10 @@ def status_cmd(campaign: CampaignArg) -> None:
     planned = plan(spec)
     table = Table(title=f"{spec.name} ({spec.track}, {spec.phase})", show_header=False)
     table.add_row("planned", str(len(planned)))
-    for status, n in sorted(counts.items()):
-        if status not in ("quarantined", "retries"):
-            table.add_row(f"  {status}", str(n))
-    table.add_row("quarantined", str(counts["quarantined"]))
-    table.add_row(f"retries (infrastructure; {spec.retries} allowed)", str(counts["retries"]))
+    for status, n in sorted(counts.by_status.items()):
+        table.add_row(f"  {status.value}", str(n))
+    table.add_row("quarantined", str(counts.quarantined))
+    table.add_row(f"retries (infrastructure; {spec.retries} allowed)", str(counts.retries))
     missing = [k for k in planned if k not in done and k not in {q.key for q in held}]
     table.add_row("missing", str(len(missing)))
     out.print(table)

@@ -198,11 +198,11 @@ def scaled_startup_s(time_scale: float) -> float:
     STARTUP_FLOOR_S."""
     from schemas import Limits
 
-    default = Limits.model_fields["startup_s"].default
+    default = Limits().startup_s
     return max(STARTUP_FLOOR_S, min(default, default * time_scale))
 
 
-def limits_of(**values: Any) -> Any:
+def limits_of(*, time_scale: float = 1.0, **values: Any) -> Any:
     """``schemas.Limits`` from command-line values; UsageError naming the option otherwise.
     A time scale in (0, 1] scales the startup budget too (scaled_startup_s)."""
     from pydantic import ValidationError
@@ -210,11 +210,10 @@ def limits_of(**values: Any) -> Any:
     from schemas import Limits
     from schemas._errors import describe
 
-    scale = values.get("time_scale")
-    if "startup_s" not in values and isinstance(scale, int | float) and 0 < scale <= 1:
-        values["startup_s"] = scaled_startup_s(scale)
+    if 0 < time_scale <= 1:
+        values.setdefault("startup_s", scaled_startup_s(time_scale))
     try:
-        return Limits(**values)
+        return Limits(time_scale=time_scale, **values)
     except ValidationError as e:
         options = {"max_steps_per_stage": "max-steps"}
         first = describe(e)[0]

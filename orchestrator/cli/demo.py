@@ -77,8 +77,8 @@ def _load(path: Path, output: Path | None) -> Any:
         doc = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as e:
         raise SchemaError(str(path), [f"cannot read the demo file: {e}"]) from None
-    doc["output"] = str(output)
     spec = parse_json(json.dumps(doc, default=str), CampaignSpec, source=str(path))
+    spec = spec.model_copy(update={"output": output})
     check_campaign(spec, source=str(path))
     return spec
 
@@ -87,8 +87,8 @@ def _write_spec(spec: Any, path: Path) -> None:
     import yaml
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    doc = spec.model_dump(mode="json", exclude_defaults=True)
-    doc["output"] = str(spec.output.resolve())
+    doc = spec.model_copy(update={"output": spec.output.resolve()}).model_dump(
+        mode="json", exclude_defaults=True)
     path.write_text("# The campaign `eagc demo` ran (written by it).\n"
                     + yaml.safe_dump(doc, sort_keys=False))
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from typer.testing import CliRunner
 
 from orchestrator._runtimes.interface import AgentLaunch
-from orchestrator._runtimes.local import LocalProcessRuntime, local_agents
+from orchestrator._runtimes.local import MARK, LocalMark, LocalProcessRuntime, local_agents
 from orchestrator.cli import app
 from schemas import Limits
 
@@ -37,7 +37,7 @@ run_episode(EpisodeSpec(track="sanity", image=sys.argv[1], seed=1, runs_dir=Path
 
 def _agent_of(episode: str) -> int | None:
     for pid, mark in local_agents():
-        if (mark.get("labels") or {}).get("episode") == episode:  # type: ignore[union-attr]
+        if mark.matches({"episode": episode}):
             return pid
     return None
 
@@ -145,3 +145,25 @@ def test_cleanup_tidies_killed_attempts_folders() -> None:
     assert gone.exit_code == 0 and not (runs / "epkilled").exists()
     for name in ("epdone", "eplive"):
         assert (runs / name / "sock" / "zenoh.sock").exists(), name
+
+
+def test_a_local_agent_is_found_by_its_mark_and_a_foreign_mark_is_ignored() -> None:
+    """The mark in an agent's environment reads back as a LocalMark (labels, heartbeat);
+    a process whose variable holds something else is no agent of ours."""
+    runs = Path(tempfile.mkdtemp(prefix="eagc-lm-", dir="/tmp"))
+    campaign = "lm-" + os.urandom(4).hex()
+    heartbeat = runs / "ep" / "heartbeat"
+    agent = LocalProcessRuntime(quiet=True).start(_launch(runs, campaign, "ep", heartbeat))
+    foreign = subprocess.Popen(["sleep", "600"], env={**os.environ, MARK: '{"labels": 7}'})
+    try:
+        marks = dict(local_agents())
+        mark = marks[int(agent.id)]
+        assert mark == LocalMark(labels={"episode": "ep", "campaign": campaign},
+                                 heartbeat=str(heartbeat))
+        assert mark.matches({"campaign": campaign})
+        assert not mark.matches({"campaign": campaign, "submission": "other"})
+        assert foreign.pid not in marks
+    finally:
+        agent.stop()
+        foreign.kill()
+        foreign.wait()

@@ -15,6 +15,7 @@ from orchestrator._results.store import (
     StoreDamaged,
     StoreError,
     StoreWriteError,
+    Tallies,
 )
 from schemas import CampaignSpec, EpisodeResult, EpisodeStats, EpisodeStatus, ScoreCard
 
@@ -59,11 +60,11 @@ def test_attempts_quarantine_and_release(tmp_path: Path) -> None:
         assert store.attempts("c1", key) == 3
         store.quarantine("c1", key, episode="ep2", message="sim host crashed", retries=2)
         assert [q.key for q in store.quarantined("c1")] == [key]
-        assert store.counts("c1") == {"quarantined": 1, "retries": 3}
+        assert store.counts("c1") == Tallies({}, quarantined=1, retries=3)
         # An organizer re-ran it (--retry-quarantined) and it completed: released.
         assert store.commit("c1", key, _result("ep3"), retry=3, node="n")
         assert store.quarantined("c1") == []
-        assert store.counts("c1") == {"completed": 1, "quarantined": 0, "retries": 3}
+        assert store.counts("c1") == Tallies({EpisodeStatus.COMPLETED: 1}, retries=3)
 
 
 def test_store_refuses_other_seeds(tmp_path: Path) -> None:
@@ -109,15 +110,16 @@ def _fill(store: ResultsStore, n: int, campaign: str = "c1") -> None:
                      node="n")
 
 
-def _recount(path: Path, campaign: str) -> dict[str, int]:
+def _recount(path: Path, campaign: str) -> Tallies:
     db = sqlite3.connect(path)
-    out = dict(db.execute("SELECT status, COUNT(*) FROM episodes WHERE campaign=? "
-                          "GROUP BY status", (campaign,)).fetchall())
-    out["quarantined"] = db.execute("SELECT COUNT(*) FROM quarantine WHERE campaign=?",
-                                    (campaign,)).fetchone()[0]
-    out["retries"] = db.execute("SELECT COUNT(*) FROM attempts WHERE campaign=?",
-                                (campaign,)).fetchone()[0]
-    return out
+    by_status = {EpisodeStatus(status): n for status, n in db.execute(
+        "SELECT status, COUNT(*) FROM episodes WHERE campaign=? GROUP BY status",
+        (campaign,)).fetchall()}
+    (quarantined,), = db.execute("SELECT COUNT(*) FROM quarantine WHERE campaign=?",
+                                 (campaign,)).fetchall()
+    (retries,), = db.execute("SELECT COUNT(*) FROM attempts WHERE campaign=?",
+                             (campaign,)).fetchall()
+    return Tallies(by_status, quarantined=quarantined, retries=retries)
 
 
 def test_counts_are_kept_incrementally(tmp_path: Path) -> None:
@@ -137,8 +139,10 @@ def test_counts_are_kept_incrementally(tmp_path: Path) -> None:
         counts = store.counts("c1")
         store.db.set_trace_callback(None)
         assert statements and all("episodes" not in s for s in statements), statements
-        assert counts == _recount(path, "c1") == {"completed": 20, "agent_crash": 10,
-                                                  "quarantined": 1, "retries": 1}
+        assert counts == _recount(path, "c1") == Tallies(
+            {EpisodeStatus.COMPLETED: 20, EpisodeStatus.AGENT_CRASH: 10},
+            quarantined=1, retries=1)
+        assert (counts.done, counts.completed) == (30, 20)
         assert store.commit("c1", key, _result("x1"), retry=1, node=None)  # released
         assert store.counts("c1") == _recount(path, "c1")
         assert store.counts("other") == _recount(path, "other")

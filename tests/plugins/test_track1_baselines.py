@@ -1,7 +1,8 @@
 """The Track 1 baselines (examples/track1_*): they share one copy of their library
-(examples/track1_common, the image they are built FROM), they run through the real episode
-worker (SimHost over Zenoh, MCAP, /output collection, scoring) as local processes, and the
-calibration benchmark's in-process harness scores an episode exactly as the worker does.
+(examples/track1_common, the image they are built FROM, on simhost.skills), they run
+through the real episode worker (SimHost over Zenoh, MCAP, /output collection, scoring) as
+local processes, and the calibration benchmark's in-process harness scores an episode
+exactly as the worker does.
 
 The agents run WITHOUT the sandbox here (``LocalProcessRuntime``, development only); each runs
 in its container in ``tests/orchestrator/test_track1_docker.py``. The calibration itself
@@ -76,6 +77,8 @@ def test_each_library_module_has_one_copy() -> None:
     none that its image's ``COPY`` would write over the library's in /app."""
     library = {m.name for m in _modules(LIBRARY)}
     assert {"planner.py", "lookahead.py", "parsing.py", "priors.py", "priors.npz"} <= library
+    # The map, the model and navigation are simhost.skills' (tests/simhost/test_skills.py).
+    assert not {"mapping.py", "model.py", "skills.py"} & library
     for name in BASELINES:
         mine = {m.name for m in _modules(EXAMPLES / name)}
         assert not mine & library, f"examples/{name} has a copy of {sorted(mine & library)}"
@@ -88,12 +91,18 @@ def test_each_baseline_imports_the_library_from_a_checkout(name: str, tmp_path: 
     code = ("import json, os, runpy, sys; sys.path.insert(0, os.path.dirname(sys.argv[1])); "
             "runpy.run_path(sys.argv[1], run_name='not_main'); "  # as `python agent.py`
             "print(json.dumps({m: sys.modules[m].__file__ for m in "
-            "('planner', 'lookahead', 'parsing', 'priors') if m in sys.modules}))")
+            "('entry', 'planner', 'lookahead', 'parsing', 'priors', 'simhost.skills') "
+            "if m in sys.modules}))")
     out = subprocess.run([sys.executable, "-c", code, str(EXAMPLES / name / "agent.py")],
                          cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
     loaded = json.loads(out.stdout.splitlines()[-1])
-    assert "parsing" in loaded, loaded  # every one reads the instruction with it
+    assert "entry" in loaded, loaded  # every one plays through the library's entry point
+    # ... and reads the instruction with simhost.skills' reader (the memory-free policy
+    # through the library's parsing.py, which only names it).
+    assert "simhost.skills" in loaded, loaded
+    skills = loaded.pop("simhost.skills")
+    assert Path(skills).parent == ROOT / "simhost" / "skills", skills
     assert all(Path(f).parent == LIBRARY for f in loaded.values()), loaded
 
 

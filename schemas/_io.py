@@ -197,12 +197,21 @@ def problems_of(err: ValidationError, doc: Any, model: type[BaseModel],
     """The validation's problems, each at its path, with "did you mean" where a missing
     field or a wrong value is close to a key or value the file holds or the schema takes."""
     extras = unknown_keys(doc, model)
-    out = [Problem((*prefix, *x), "", True) for x in extras]
-    for e in err.errors(include_url=False):
+    errors = err.errors(include_url=False)
+    # A model that forbids extra keys reports them itself, as errors: not twice, and not
+    # as "ignored".
+    forbidden = {tuple(e["loc"]) for e in errors if e["type"] == "extra_forbidden"}
+    out = [Problem((*prefix, *x), "", True) for x in extras if tuple(x) not in forbidden]
+    strict: list[Problem] = []  # reported first, as errors
+    for e in errors:
         loc = tuple(e["loc"])
         msg = e["msg"]
         if e["type"] == "extra_forbidden":
-            out.append(Problem((*prefix, *loc), "unknown key: no field takes it", True))
+            near = difflib.get_close_matches(
+                str(loc[-1]), list(model_at(model, loc[:-1])[0].model_fields), n=1,
+                cutoff=0.6)
+            strict.append(Problem((*prefix, *loc), "unknown key: no field takes it" + (
+                f" (did you mean {near[0]!r}?)" if near else "")))
             continue
         if e["type"] == "missing":
             siblings = [x[-1] for x in extras if x[:-1] == loc[:-1] and isinstance(x[-1], str)]
@@ -219,7 +228,9 @@ def problems_of(err: ValidationError, doc: Any, model: type[BaseModel],
         if ungraded:
             msg += " (not graded: left out once the rest reads)"
         out.append(Problem((*prefix, *loc), msg, ungraded=ungraded))
-    return out
+    order = {tuple((*prefix, *x)): i for i, x in enumerate(extras)}  # the file's order
+    strict.sort(key=lambda p: order.get(p.loc, len(order)))
+    return [*strict, *out]
 
 
 # ------------------------------------------------------------------------ the format

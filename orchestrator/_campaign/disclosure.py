@@ -18,19 +18,18 @@ shown as such and is never an error.
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import json
 import os
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict
 
 from schemas import CampaignSpec, ResourceDisclosure, SchemaError, parse_json
-from schemas._io import FileProblems, Problem, model_at
+from schemas._io import FileProblems, Problem
 
 #: The folder of a campaign's kept disclosures, under its campaign folder.
 FOLDER = "submissions"
@@ -88,21 +87,7 @@ def parse_disclosure(data: bytes, *, source: str, suffix: str = ".json"
     try:
         return parse_json(text, ResourceDisclosure, source=source)
     except FileProblems as e:
-        raise FileProblems(source, _strict(e.found), ResourceDisclosure) from None
-
-
-def _strict(found: Sequence[Problem]) -> list[Problem]:
-    """The problems of a strict file: a key no field takes is an error here (never "not
-    graded, ignored"), once per place, with "did you mean" its closest field."""
-    unknown: dict[tuple[Any, ...], Problem] = {}
-    for p in found:
-        if p.unknown and p.loc not in unknown:
-            model = model_at(ResourceDisclosure, p.loc[:-1])[0]
-            hint = difflib.get_close_matches(str(p.loc[-1]), list(model.model_fields), n=1,
-                                             cutoff=0.6)
-            unknown[p.loc] = Problem(p.loc, "unknown key: no field takes it" + (
-                f" (did you mean {hint[0]!r}?)" if hint else ""))
-    return [*unknown.values(), *(p for p in found if not p.unknown)]
+        raise FileProblems(source, e.found, ResourceDisclosure) from None
 
 
 def read_disclosure(path: Path) -> ResourceDisclosure:

@@ -164,3 +164,17 @@ def test_track2_grades_a_task_model_with_its_own_keys_and_notes_them() -> None:
         protocol_errors=0, stage_budgets_s=granted_budgets(plugin.stages())))
     assert any(n.startswith("task_model.json: not graded, ignored: confidence")
                and "variables.0.unit" in n for n in card.notes), card.notes
+
+
+def test_a_strict_file_reports_an_unknown_key_once_as_an_error() -> None:
+    """Files whose model forbids extra keys (the campaign, the disclosure) are not graded
+    leniently: an unknown key is one error, never also listed as "ignored"."""
+    from schemas import CampaignSpec
+
+    doc = {"name": "c", "track": "sanity", "workerz": 2,
+           "submissions": [{"team": "a", "image": "x"}]}
+    with pytest.raises(SchemaError) as got:
+        parse_json(json.dumps(doc), CampaignSpec, source="campaign.yaml")
+    text = str(got.value)
+    assert text.count("- workerz: unknown key") == 1, text
+    assert "ignored" not in text, text

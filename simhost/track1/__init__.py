@@ -44,6 +44,7 @@ from ._errors import (
 )
 from ._generate import generate_house
 from ._graph import doors_on_path, is_two_edge_connected, shortest_room_path
+from ._info import HouseInfo
 from ._layout import Door, Furniture, HouseLayout, HouseParams, Item, Room, Wall
 from ._register import CHALLENGE_ENV_ID, DEV_ENV_ID, ENV_ID, ENV_IDS, register_envs
 from ._splits import SPLITS, HouseSplit, house_split
@@ -127,6 +128,7 @@ __all__ = [
     "HouseEnv",
     "HouseEnvConfig",
     "HouseError",
+    "HouseInfo",
     "HouseLayout",
     "HouseParams",
     "HouseSim",

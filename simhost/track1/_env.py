@@ -14,6 +14,7 @@ from ._catalogue import CATEGORIES, COLOURS, KINDS, MAX_IDS, MAX_ROOMS, ROOM_TYP
 from ._config import HouseEnvConfig
 from ._generate import generate_house
 from ._house import House
+from ._info import HouseInfo
 from ._layout import HouseLayout, HouseParams
 from ._splits import HouseSplit, house_split
 from ._task import HouseTask
@@ -121,6 +122,24 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start an episode (``reset_typed``, with gymnasium's plain ``info`` dict)."""
+        obs, info = self.reset_typed(seed=seed, options=options)
+        return obs, info.as_dict()
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """Run one primitive (``step_typed``, with gymnasium's plain ``info`` dict)."""
+        obs, reward, terminated, truncated, info = self.step_typed(action)
+        return obs, reward, terminated, truncated, info.as_dict()
+
+    def observe(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """The observation and info of the current state, without stepping (``observe_typed``
+        with gymnasium's plain ``info`` dict)."""
+        obs, info = self.observe_typed()
+        return obs, info.as_dict()
+
+    def reset_typed(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], HouseInfo]:
         """Start an episode. Without a fixed layout, ``seed`` selects the house (same seed,
         same house); with ``seed=None`` the next house comes from the env's seeded RNG. The
         seed also keys the sensors' noise (same seed and actions, same observations).
@@ -152,9 +171,9 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         self._last = ActionResult("reset", True)
         return self._observation(), self._info()
 
-    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step_typed(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, HouseInfo]:
         """Run one primitive. A failed precondition changes nothing and says why in
-        ``info["action_result"]``."""
+        ``info.action_result``."""
         house = self._house()
         parsed = parse_action(action)
         if isinstance(parsed, ActionResult):
@@ -174,7 +193,7 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         terminated = result.primitive == "done" and result.ok
         return self._observation(), reward, terminated, False, self._info()
 
-    def observe(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    def observe_typed(self) -> tuple[dict[str, np.ndarray], HouseInfo]:
         """The observation and info of the current state, without stepping (e.g. after a
         perturbation); the sensors' draws are those of the current step."""
         return self._observation(), self._info()
@@ -231,25 +250,19 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
             obs["depth"] = np.minimum(depth, np.float32(_MAX_DEPTH))  # no hit: the far plane
         return obs
 
-    def _info(self) -> dict[str, Any]:
+    def _info(self) -> HouseInfo:
         house = self._house()
         room = house.room_sign()
-        info: dict[str, Any] = {
-            "action_result": {
-                "ok": self._last.ok,
-                "reason": self._last.reason,
-                "primitive": self._last.primitive,
-            },
-            "collided": self._last.collided,
-            "detections": [d.to_dict() for d in house.detections()],
-            "room": {"id": room, "type": house.layout.rooms[room].type if room >= 0 else None},
-            "held": house.world.held,
-            "step": house.world.steps,
-            "sim_warnings": house.sim.warnings(),
-        }
-        if self.task is not None:
-            info["task_satisfied"] = house.task_satisfied(self.task)
-        return info
+        return HouseInfo(
+            action_result=self._last,
+            detections=tuple(house.detections()),
+            room=room,
+            room_type=house.layout.rooms[room].type if room >= 0 else None,
+            held=house.world.held,
+            step=house.world.steps,
+            sim_warnings=house.sim.warnings(),
+            task_satisfied=None if self.task is None else house.task_satisfied(self.task),
+        )
 
     # ----------------------------------------------------------------- organizer API
     def ground_truth(self) -> HouseTruth:

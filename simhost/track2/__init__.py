@@ -12,7 +12,8 @@ user may touch:
   ``SPLITS``, :func:`split_config`;
 - instances: :class:`InstanceParams`, :func:`default_source`, :func:`sample_instance`,
   :func:`instance_distance`, ``FAMILIES``, ``PARAM_TABLES``, :func:`family_step_cap`;
-- the environment: :class:`BenchEnv` (a ``gymnasium.Env``), :func:`register_envs`
+- the environment: :class:`BenchEnv` (a ``gymnasium.Env``; :class:`BenchInfo`, its
+  ``info`` typed), :func:`register_envs`
   (``eagc/Bench-<Family>-v0``, ``split=`` as a keyword), ``PART_FIELDS``;
 - ground truth for scoring: :class:`TaskTruth`, :func:`task_truth`;
 - the scripted expert: :class:`ScriptedExpert` (privileged, or through the observations),
@@ -52,6 +53,7 @@ from ._errors import (
     Track2Error,
 )
 from ._families import family_step_cap, task_truth
+from ._info import BenchInfo
 from ._params import (
     FAMILIES,
     PARAM_TABLES,
@@ -91,6 +93,7 @@ __all__ = [
     "SPLITS",
     "BenchConfig",
     "BenchEnv",
+    "BenchInfo",
     "DemoPacket",
     "DemoPacketError",
     "InstanceParams",

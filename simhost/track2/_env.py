@@ -70,6 +70,7 @@ from ._config import BenchConfig, split_config
 from ._errors import InstanceParamsError, StateError
 from ._families import make_task
 from ._family import GOAL_SIZE, Evaluation
+from ._info import BenchInfo
 from ._observe import PartsChannel, quat_mul, quat_z
 from ._params import FAMILIES, InstanceParams, default_source, sample_instance
 from ._sim import Sim
@@ -234,6 +235,20 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """``reset_typed`` with gymnasium's plain ``info`` dict."""
+        obs, info = self.reset_typed(seed=seed, options=options)
+        return obs, info.as_dict()
+
+    def step(
+        self, action: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """``step_typed`` with gymnasium's plain ``info`` dict."""
+        obs, reward, terminated, truncated, info = self.step_typed(action)
+        return obs, reward, terminated, truncated, info.as_dict()
+
+    def reset_typed(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], BenchInfo]:
         """Put the instance back in its initial state (jittered as the config says).
 
         ``options={"params": InstanceParams}`` switches to another instance first. ``seed``
@@ -284,9 +299,10 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._progress = self.task.progress(ev)
         return self._obs(), self._info(ev, [], [], False, False)
 
-    def step(
+    def step_typed(
         self, action: np.ndarray
-    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, BenchInfo]:
+        """One control step (module docstring); the info typed."""
         a, invalid, clipped = self._validate(action)
         m, d = self.model, self.data
         old_target, old_width = self._target.copy(), self._width
@@ -526,18 +542,18 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         events: list[dict[str, str]],
         invalid: bool,
         clipped: bool,
-    ) -> dict[str, Any]:
-        return {
-            "progress": float(self._progress),
-            "success": bool(ev.success),
-            "stage": "done" if ev.success else ev.stage,
-            "value": ev.value,
-            "contact_force": float(self.sim.max_hand_force),
-            "push_force": float(np.linalg.norm(self.sim.force[3:])),
-            "sim_warnings": warnings,
-            "events": events,
-            "invalid_action": invalid,
-            "action_clipped": clipped,
-            "joint_limit": self.sim.hand_at_limit(),
-            "step": self._steps,
-        }
+    ) -> BenchInfo:
+        return BenchInfo(
+            progress=float(self._progress),
+            success=bool(ev.success),
+            stage="done" if ev.success else ev.stage,
+            value=ev.value,
+            contact_force=float(self.sim.max_hand_force),
+            push_force=float(np.linalg.norm(self.sim.force[3:])),
+            sim_warnings=warnings,
+            events=events,
+            invalid_action=invalid,
+            action_clipped=clipped,
+            joint_limit=self.sim.hand_at_limit(),
+            step=self._steps,
+        )

@@ -1,12 +1,16 @@
 """Track plugins: the rules of the game (stages, scenarios, exceptions, file checks, scores).
 
-Public API: ``TrackPlugin``, ``Scenario``, ``ScoringInput``, ``FileRule``, ``load_track``,
-``available_tracks``, ``PluginError``. The conformance suite is ``plugins.conformance``.
+Public API: ``TrackPlugin`` (generic over its scenario and outcome models), ``Scenario``,
+``ScoringInput``, ``EpisodeOutcome`` (the base of every track's outcome), ``FileRule``,
+``load_track``, ``available_tracks``, ``PluginError``. The conformance suite is
+``plugins.conformance``.
 """
 
 from plugins._base import (
+    EPISODE_LOG,
     Column,
     FileRule,
+    ParsedFile,
     Scenario,
     ScoringInput,
     TrackPlugin,
@@ -15,13 +19,16 @@ from plugins._base import (
 )
 from plugins._errors import PluginError
 from plugins._registry import GROUP, available_tracks, load_track, validate_plugin
-from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
+from simhost._episode import EpisodeOutcome, Observation, StageSpec, StepOutcome, TrackEpisode
 
 __all__ = [
+    "EPISODE_LOG",
     "GROUP",
     "Column",
+    "EpisodeOutcome",
     "FileRule",
     "Observation",
+    "ParsedFile",
     "PluginError",
     "Scenario",
     "ScoringInput",

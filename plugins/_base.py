@@ -8,6 +8,13 @@ A track plugin is a class registered under the entry-point group ``eagc.tracks``
 It defines the stages and their budgets, builds a hidden scenario from a seed, makes the live
 episode (world + exception triggers) the sim host serves, verifies the agent's files and
 scores the episode. Run ``plugins.conformance.TrackConformance`` against any new plugin.
+
+A plugin is generic over its two models, ``TrackPlugin[ScenarioT, OutcomeT]``: the hidden
+scenario (``scenario_model``, a pydantic model whose JSON is ``Scenario.params``) and what
+an episode achieved (``outcome_model``, an ``EpisodeOutcome``). Both travel typed from
+``make_scenario`` to ``make_episode`` and from ``TrackEpisode.outcome`` to ``score``; their
+JSON is read back (``hidden``, ``outcome_of``) only where it came from outside, e.g. a replay
+rebuilding the scenario from the episode's log.
 """
 
 from __future__ import annotations
@@ -16,7 +23,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Generic, TypeVar
 
 from pydantic import BaseModel
 
@@ -25,6 +32,7 @@ from schemas import (
     EndReason,
     EpisodeResult,
     FileCheck,
+    LogRecord,
     SchemaError,
     ScoreCard,
     parse_episode_log,
@@ -32,17 +40,34 @@ from schemas import (
 )
 from schemas._io import ignored_note
 from schemas._result import EpisodeStatus
-from simhost._episode import StageSpec, TrackEpisode
+from simhost._episode import EpisodeOutcome, StageSpec, TrackEpisode
+
+#: A track's hidden-scenario model.
+ScenarioT = TypeVar("ScenarioT", bound=BaseModel)
+#: A track's episode-outcome model.
+OutcomeT = TypeVar("OutcomeT", bound=EpisodeOutcome)
+FileT = TypeVar("FileT", bound=BaseModel)
+
+#: A collected file as ``verify_files`` parsed it: its ``FileRule.model``, or the records of
+#: a JSON-lines log.
+ParsedFile = BaseModel | list[LogRecord]
+#: The episode log every track collects (``FileRule(None, jsonl=True)``).
+EPISODE_LOG = "episode_log.jsonl"
 
 
 @dataclass(frozen=True)
-class Scenario:
+class Scenario(Generic[ScenarioT]):
     """One hidden scenario. Organizer-only: never enters the agent's container."""
 
     track: str
     split: str
     seed: int
+    #: The hidden scenario as JSON: what the episode's log records and a replay rebuilds
+    #: the scenario from.
     params: Mapping[str, Any] = field(default_factory=dict)
+    #: The same, typed (``TrackPlugin.new_scenario``); None in a scenario rebuilt from its
+    #: JSON (``TrackPlugin.hidden`` then reads ``params``).
+    hidden: ScenarioT | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -56,22 +81,40 @@ class FileRule:
 
 
 @dataclass(frozen=True)
-class ScoringInput:
+class ScoringInput(Generic[ScenarioT, OutcomeT]):
     """Everything the scorer may look at, as one object (fields can be added later)."""
 
-    scenario: Scenario
+    scenario: Scenario[ScenarioT]
     status: EpisodeStatus
     end_reason: EndReason
     stages_reached: tuple[str, ...]
-    outcome: Mapping[str, Any]
-    files: Mapping[str, Any]
-    snapshots: Mapping[str, Mapping[str, Any]]
+    #: What the episode achieved (``TrackEpisode.outcome``); None when it produced nothing.
+    outcome: OutcomeT | None
+    #: The final files that passed ``verify_files``, by name.
+    files: Mapping[str, ParsedFile]
+    #: Stage name -> the files of that stage's end snapshot that passed.
+    snapshots: Mapping[str, Mapping[str, ParsedFile]]
     steps: int
     invalid_actions: int
     protocol_errors: int
     #: Wall-clock budget each stage was granted (s, after the campaign's time scale):
     #: ``granted_budgets(plugin.stages(), time_scale)``.
     stage_budgets_s: Mapping[str, float]
+
+    def file(self, name: str, model: type[FileT]) -> FileT | None:
+        """The final file ``name`` if it parsed as ``model``, else None."""
+        got = self.files.get(name)
+        return got if isinstance(got, model) else None
+
+    def snapshot(self, stage: str, name: str, model: type[FileT]) -> FileT | None:
+        """File ``name`` of ``stage``'s end snapshot if it parsed as ``model``, else None."""
+        got = self.snapshots.get(stage, {}).get(name)
+        return got if isinstance(got, model) else None
+
+    def log(self) -> list[LogRecord]:
+        """The records of the final episode log (``[]`` when it is missing or refused)."""
+        got = self.files.get(EPISODE_LOG)
+        return list(got) if isinstance(got, list) else []
 
 
 def granted_budgets(stages: Sequence[StageSpec], time_scale: float = 1.0) -> dict[str, float]:
@@ -106,8 +149,13 @@ def resource_columns(results: Sequence[EpisodeResult]) -> dict[str, float | None
     }
 
 
-class TrackPlugin(ABC):
+class TrackPlugin(ABC, Generic[ScenarioT, OutcomeT]):
     """A track: stages, scenarios, episodes, file checks, scoring and its leaderboard."""
+
+    #: The hidden-scenario model (``Scenario.params`` is its JSON).
+    scenario_model: type[ScenarioT]
+    #: What an episode achieved (``TrackEpisode.outcome`` returns one).
+    outcome_model: type[OutcomeT]
 
     #: Leaderboard columns after the team (override with the track's table layout).
     columns: ClassVar[tuple[Column, ...]] = (
@@ -153,20 +201,46 @@ class TrackPlugin(ABC):
     @abstractmethod
     def make_scenario(
         self, *, seed: int, split: str, params: Mapping[str, Any], index: int | None = None
-    ) -> Scenario:
-        """The hidden scenario of ``seed`` in ``split``. Same arguments → same scenario.
+    ) -> Scenario[ScenarioT]:
+        """The hidden scenario of ``seed`` in ``split`` (``new_scenario``). Same arguments →
+        same scenario.
 
         ``index`` is the episode's index within its split in a campaign (e.g. to balance
         task families by ``index mod n``), ``None`` for a one-off episode.
         """
 
     @abstractmethod
-    def make_episode(self, scenario: Scenario) -> TrackEpisode:
+    def make_episode(self, scenario: Scenario[ScenarioT]) -> TrackEpisode:
         """The live episode the sim host serves."""
 
     @abstractmethod
-    def score(self, data: ScoringInput) -> ScoreCard:
+    def score(self, data: ScoringInput[ScenarioT, OutcomeT]) -> ScoreCard:
         """Scores one episode, whatever way it ended."""
+
+    def new_scenario(self, *, seed: int, split: str, hidden: ScenarioT) -> Scenario[ScenarioT]:
+        """A scenario of this track around ``hidden``: its JSON as ``params``, and typed as
+        that JSON reads back, so that the episode runs on what its log records."""
+        params = hidden.model_dump(mode="json")
+        return Scenario(track=self.name, split=split, seed=seed, params=params,
+                        hidden=self.scenario_model.model_validate(params))
+
+    def hidden(self, scenario: Scenario[Any]) -> ScenarioT:
+        """The typed hidden scenario: ``scenario.hidden``, else its ``params`` read back (a
+        scenario rebuilt from an episode's log)."""
+        if isinstance(scenario.hidden, self.scenario_model):
+            return scenario.hidden
+        return self.scenario_model.model_validate(scenario.params)
+
+    def outcome_of(self, data: ScoringInput[ScenarioT, Any]) -> OutcomeT | None:
+        """The episode's typed outcome; None when it produced none. An outcome given as its
+        JSON (a stored or hand-written one) is read back with ``outcome_model``."""
+        got = data.outcome
+        if got is None or isinstance(got, self.outcome_model):
+            return got
+        if isinstance(got, Mapping):
+            return self.outcome_model.model_validate(dict(got)) if got else None
+        raise PluginError(f"track {self.name!r}: the outcome is a {type(got).__name__}, "
+                          f"not a {self.outcome_model.__name__}")
 
     def picture(self, episode_dir: Path, out: Path | None = None) -> Path:
         """Draws a recorded episode as a PNG (title: track, seed, split, outcome; a legend
@@ -183,7 +257,8 @@ class TrackPlugin(ABC):
     def write_inputs(self, scenario: Scenario, folder: Path) -> None:  # noqa: B027
         """Writes read-only inputs mounted into the container (e.g. a demo packet)."""
 
-    def verify_files(self, files: Mapping[str, bytes]) -> tuple[dict[str, Any], list[FileCheck]]:
+    def verify_files(self, files: Mapping[str, bytes]
+                     ) -> tuple[dict[str, ParsedFile], list[FileCheck]]:
         """Validates collected files against their schemas (``eagc check-files`` runs
         this too, so that a team sees what the host sees).
 
@@ -192,7 +267,7 @@ class TrackPlugin(ABC):
         (``schemas._io.problem_lines``); a passed file's, the keys nothing grades (they
         are ignored, never a reason to refuse the file).
         """
-        parsed: dict[str, Any] = {}
+        parsed: dict[str, ParsedFile] = {}
         checks: list[FileCheck] = []
         for fname, rule in self.files.items():
             data = files.get(fname)
@@ -250,15 +325,16 @@ class TrackPlugin(ABC):
         leaderboard resamples within these strata for its intervals."""
         return ""
 
-    def parse_snapshot(self, files: Mapping[str, bytes]) -> dict[str, Any]:
+    def parse_snapshot(self, files: Mapping[str, bytes]) -> dict[str, ParsedFile]:
         """The files of one stage-end snapshot that parse (used by scorers)."""
         return self.verify_files(files)[0]
 
 
-def score_episode(plugin: TrackPlugin, scenario: Scenario | None, *, status: EpisodeStatus,
-                  end_reason: EndReason, stages_reached: Sequence[str],
-                  outcome: Mapping[str, Any], files: Mapping[str, Any],
-                  snapshots: Mapping[str, Mapping[str, Any]], steps: int,
+def score_episode(plugin: TrackPlugin[ScenarioT, OutcomeT], scenario: Scenario[ScenarioT] | None,
+                  *, status: EpisodeStatus, end_reason: EndReason,
+                  stages_reached: Sequence[str], outcome: OutcomeT | None,
+                  files: Mapping[str, ParsedFile],
+                  snapshots: Mapping[str, Mapping[str, ParsedFile]], steps: int,
                   invalid_actions: int, protocol_errors: int,
                   time_scale: float = 1.0) -> ScoreCard:
     """The one way an episode is scored: the worker and every benchmark harness call it.

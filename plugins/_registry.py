@@ -7,8 +7,11 @@ import math
 from functools import cache
 from importlib.metadata import EntryPoint, entry_points
 
+from pydantic import BaseModel
+
 from plugins._base import TrackPlugin
 from plugins._errors import PluginError
+from simhost._episode import EpisodeOutcome
 
 GROUP = "eagc.tracks"
 
@@ -26,11 +29,17 @@ def validate_plugin(plugin: TrackPlugin, *, name: str) -> None:
     """Checks a plugin instance; raises PluginError naming the plugin and what is wrong."""
     where = f"track plugin {name!r} ({type(plugin).__module__}.{type(plugin).__qualname__})"
     problems: list[str] = []
-    for attr in ("name", "title", "weights", "files", "splits"):
+    for attr in ("name", "title", "weights", "files", "splits", "scenario_model",
+                 "outcome_model"):
         if not hasattr(plugin, attr):
             problems.append(f"class attribute {attr!r} is missing")
     if problems:
         raise PluginError(f"{where}: " + "; ".join(problems))
+    for attr, base, called in (("scenario_model", BaseModel, "pydantic.BaseModel"),
+                               ("outcome_model", EpisodeOutcome, "plugins.EpisodeOutcome")):
+        model = getattr(plugin, attr)
+        if not (isinstance(model, type) and issubclass(model, base)):
+            problems.append(f"{attr} is {model!r}, not a subclass of {called}")
     if plugin.name != name:
         problems.append(f"name is {plugin.name!r} but it is registered as {name!r}")
     total = sum(plugin.weights.values())

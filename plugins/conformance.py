@@ -30,14 +30,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from plugins._base import Scenario, ScoringInput, TrackPlugin, granted_budgets
+from plugins._base import ParsedFile, Scenario, ScoringInput, TrackPlugin, granted_budgets
 from plugins._registry import available_tracks, load_track, validate_plugin
 from schemas import EndReason, FieldSpec, FileCheck, HostMessage, ScoreCard
 from schemas._result import EpisodeStatus
 from simhost._actions import check_action
-from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
+from simhost._episode import EpisodeOutcome, Observation, StageSpec, StepOutcome, TrackEpisode
 
-__all__ = ["TrackConformance", "check_observation", "sample_action"]
+__all__ = ["TrackConformance", "check_observation", "check_outcome", "sample_action"]
 
 _WIRE_DTYPES = {"float32", "float64", "int32", "int64", "uint8", "uint16", "bool"}
 _SPAN = 10.0  # sampling range on a side a spec leaves unbounded
@@ -128,6 +128,17 @@ def check_observation(spec: tuple[FieldSpec, ...], obs: Observation, where: str)
             assert np.all((arr >= 0) & (arr < len(f.choices))), f"{where}: {f.name!r}={arr}"
 
 
+def check_outcome(plugin: TrackPlugin[Any, Any], outcome: EpisodeOutcome) -> None:
+    """Asserts that ``outcome`` is the plugin's ``outcome_model`` and survives its JSON."""
+    model = plugin.outcome_model
+    assert isinstance(outcome, model), (
+        f"outcome() returned {type(outcome).__name__}, not the plugin's {model.__name__}")
+    assert isinstance(outcome.sim_warnings, int) and outcome.sim_warnings >= 0
+    back = model.model_validate_json(outcome.model_dump_json())
+    assert back.model_dump(mode="json") == outcome.model_dump(mode="json"), (
+        "the outcome does not read back from its JSON")
+
+
 def _same(a: Any, b: Any) -> bool:
     """Equality that also holds for numpy arrays nested in mappings and sequences."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
@@ -156,14 +167,14 @@ class TrackConformance:
 
     # ----------------------------------------------------------------------- helpers
     @property
-    def plugin(self) -> TrackPlugin:
+    def plugin(self) -> TrackPlugin[Any, Any]:
         """The plugin under test, loaded through its entry point."""
         return load_track(self.track)
 
     def _split(self) -> str:
         return self.split if self.split is not None else next(iter(self.plugin.splits))
 
-    def _scenario(self, seed: int | None = None) -> Scenario:
+    def _scenario(self, seed: int | None = None) -> Scenario[Any]:
         return self.plugin.make_scenario(
             seed=self.seed if seed is None else seed, split=self._split(), params=self.params
         )
@@ -205,13 +216,13 @@ class TrackConformance:
                 if over:
                     break
             check_observation(episode.observation_spec, episode.observe(), "observe()")
-            json.dumps(episode.outcome(), default=repr)
+            check_outcome(self.plugin, episode.outcome())
         except BaseException:
             episode.close()
             raise
         return hashes, outcomes, episode
 
-    def _scoring_input(self, *, started: bool) -> ScoringInput:
+    def _scoring_input(self, *, started: bool) -> ScoringInput[Any, Any]:
         """An episode in which the agent did nothing (never started, or sat still)."""
         scenario = self._scenario()
         episode = self.plugin.make_episode(scenario)
@@ -223,7 +234,8 @@ class TrackConformance:
                 episode.on_stage_start(first)
                 episode.on_stage_end(first, ended_by="budget", payload={})
                 stages = (first,)
-            outcome = dict(episode.outcome())
+            outcome = episode.outcome()
+            check_outcome(self.plugin, outcome)
         finally:
             episode.close()
         return ScoringInput(
@@ -252,7 +264,7 @@ class TrackConformance:
                 out[name] = rule.model().model_dump_json().encode()
         return out
 
-    def _checks(self, files: Mapping[str, bytes]) -> tuple[dict[str, Any], list[FileCheck]]:
+    def _checks(self, files: Mapping[str, bytes]) -> tuple[dict[str, ParsedFile], list[FileCheck]]:
         parsed, checks = self.plugin.verify_files(files)
         assert all(isinstance(c, FileCheck) for c in checks)
         names = [c.name for c in checks]
@@ -298,6 +310,17 @@ class TrackConformance:
         assert _same(a.params, b.params), "the same seed gave two different scenarios"
         copy = pickle.loads(pickle.dumps(a))  # it travels to Ray workers
         assert _same(copy.params, a.params)
+
+    def test_scenario_is_typed_and_reads_back_from_its_json(self):
+        a = self._scenario()
+        model = self.plugin.scenario_model
+        assert isinstance(a.hidden, model), (
+            f"make_scenario gave hidden={type(a.hidden).__name__}, not {model.__name__} "
+            "(build it with TrackPlugin.new_scenario)")
+        logged = json.loads(json.dumps(dict(a.params)))  # as the episode's log keeps it
+        rebuilt = Scenario(track=a.track, split=a.split, seed=a.seed, params=logged)
+        assert self.plugin.hidden(rebuilt) == a.hidden, "params do not read back as hidden"
+        assert pickle.loads(pickle.dumps(a)).hidden == a.hidden
 
     def test_scenarios_differ_between_seeds(self):
         first = self._scenario().params

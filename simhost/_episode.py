@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from schemas._protocol import ActionResult, EndReason, FieldSpec, HostMessage
 
@@ -69,6 +70,18 @@ class StepOutcome:
     episode_over: bool = False
     end_reason: EndReason | None = None
     events: tuple[Mapping[str, Any], ...] = ()
+
+
+class EpisodeOutcome(BaseModel):
+    """What one episode achieved (organizer-only), as ``TrackEpisode.outcome`` returns it.
+
+    A track subclasses it with what its scorer reads (progress, ground truth, events); the
+    fields declared here are the ones the episode worker reads of every track."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    sim_warnings: int = Field(0, description="MuJoCo warnings raised during the episode "
+                              "(the result's ``stats.sim_warnings``).")
 
 
 class TrackEpisode(ABC):
@@ -128,9 +141,10 @@ class TrackEpisode(ABC):
         """A short hash of the simulator state, logged every step."""
         return ""
 
-    def outcome(self) -> dict[str, Any]:
-        """Organizer-only summary the track's scorer reads (ground truth, progress, events)."""
-        return {}
+    def outcome(self) -> EpisodeOutcome:
+        """Organizer-only summary the track's scorer reads (ground truth, progress, events):
+        the track's ``EpisodeOutcome`` subclass. Default: nothing but the base's fields."""
+        return EpisodeOutcome()
 
     def close(self) -> None:  # noqa: B027 - optional hook
         """Releases the world's resources."""

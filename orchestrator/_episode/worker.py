@@ -50,7 +50,7 @@ from orchestrator._runtimes.interface import (
     AgentStartError,
 )
 from orchestrator._runtimes.reaper import Heartbeat, reap_here
-from plugins import Scenario, TrackPlugin, load_track, score_episode
+from plugins import EpisodeOutcome, Scenario, TrackPlugin, load_track, score_episode
 from schemas import (
     CONTAINER,
     ContainerExit,
@@ -240,10 +240,11 @@ class _Served:
     """What serving an episode left: its scenario, the host's outcome, the agent's exit,
     the track's organizer-side outcome, and what went wrong outside the agent's doing."""
 
-    scenario: Scenario | None = None
+    scenario: Scenario[Any] | None = None
     outcome: HostOutcome = field(default_factory=HostOutcome)
     exit_: ContainerExit = field(default_factory=ContainerExit)
-    episode_outcome: dict[str, Any] = field(default_factory=dict)
+    #: ``TrackEpisode.outcome()`` (None: the episode never got that far, or it failed).
+    episode_outcome: EpisodeOutcome | None = None
     infra: str | None = None
     no_start: str | None = None
 
@@ -300,7 +301,7 @@ def run_episode(spec: EpisodeSpec, runtime: AgentRuntime) -> EpisodeResult:
         peak_memory_bytes=exit_.peak_memory_bytes,
         wall_s=time.time() - started,
         stage_durations_s=outcome.stage_durations_s,
-        sim_warnings=int(served.episode_outcome.get("sim_warnings", 0) or 0),
+        sim_warnings=0 if served.episode_outcome is None else served.episode_outcome.sim_warnings,
     )
     failure = None
     if status.failure_kind is not None:
@@ -339,8 +340,8 @@ def _prepare(spec: EpisodeSpec, episode_id: str) -> _Folders:
     return _Folders(root, sock, output, host, socket_path)
 
 
-def _serve(spec: EpisodeSpec, runtime: AgentRuntime, plugin: TrackPlugin, episode_id: str,
-           folders: _Folders, recorder: McapRecorder, snapshots: _Snapshots,
+def _serve(spec: EpisodeSpec, runtime: AgentRuntime, plugin: TrackPlugin[Any, Any],
+           episode_id: str, folders: _Folders, recorder: McapRecorder, snapshots: _Snapshots,
            heartbeat: Heartbeat) -> _Served:
     """Builds the scenario, opens the sim host, starts the agent and serves the episode
     to its end; whatever happens, the agent is stopped and the host closed."""

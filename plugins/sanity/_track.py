@@ -18,11 +18,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, SerializerFunctionWrapHandler, model_serializer
 
 from plugins._base import FileRule, Scenario, ScoringInput, TrackPlugin
 from schemas import EndReason, FieldSpec, ScoreCard, WorldModel
 from schemas._protocol import ActionResult, HostMessage
 from simhost._episode import (
+    EpisodeOutcome,
     Observation,
     Pose,
     StageEnd,
@@ -36,6 +38,74 @@ DETECT_WINDOW = 20  # steps after the exception's first observable effect
 MODEL_TOLERANCE = 0.5  # metres: model error at which the model score reaches 0
 
 
+class SanitySplitParams(BaseModel):
+    """A sanity split's scenario parameters (a campaign split's ``params``; other keys are
+    ignored)."""
+
+    model_config = ConfigDict(frozen=True, extra="ignore")
+
+    exception_probability: float = 0.5
+    """The chance that the target moves when the robot comes near it."""
+    render_rgbd: bool = False
+    """Add the overhead camera's ``rgb``, ``depth`` and ``segmentation``."""
+    image_size: tuple[int, int] = (64, 64)
+    """Width, height of the camera's images."""
+
+
+class SanityScenario(BaseModel):
+    """One hidden sanity scenario (``Scenario.params`` as JSON; the camera's fields only
+    when it renders)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    start: list[float]
+    """The robot's start x, y (m)."""
+    target: list[float]
+    moved_target: list[float] | None
+    """Where the exception moves the target (None: no exception)."""
+    render_rgbd: bool | None = None
+    image_size: tuple[int, int] | None = None
+    """Width, height of the camera's images when it renders."""
+
+    @model_serializer(mode="wrap")
+    def _camera_when_rendering(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        out: dict[str, Any] = handler(self)
+        if not self.render_rgbd:
+            out.pop("render_rgbd", None)
+            out.pop("image_size", None)
+        return out
+
+
+class TargetMoved(BaseModel):
+    """The exception as it happened: the target moved when the robot came near it."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    type: str = "target_moved"
+    step: int
+    at: list[float]
+    """Where the robot was (x, y)."""
+    to: list[float]
+    """Where the target went (x, y)."""
+
+
+class SanityOutcome(EpisodeOutcome):
+    """What a sanity episode achieved (the defaults: an episode in which nothing happened)."""
+
+    target_initial: list[float] | None = None
+    target_final: list[float] | None = None
+    exception: TargetMoved | None = None
+    reached: bool = False
+    reached_step: int | None = None
+    found_in_explore: bool = False
+    reach_start: list[float] | None = None
+    """Where the robot was when ``reach`` began."""
+    reach_path: float = 0.0
+    """Metres driven during ``reach``."""
+    collisions: int = 0
+    steps: int = 0
+
+
 def _tensor(name: str, shape: tuple[int, ...], low: float, high: float, text: str) -> FieldSpec:
     return FieldSpec(name=name, dtype="float32", shape=shape, low=low, high=high, tensor=True,
                      description=text)
@@ -44,13 +114,12 @@ def _tensor(name: str, shape: tuple[int, ...], low: float, high: float, text: st
 class SanityEpisode(TrackEpisode):
     """One live sanity episode around ``SanityArenaEnv``."""
 
-    def __init__(self, scenario: Scenario) -> None:
+    def __init__(self, scenario: Scenario[SanityScenario], hidden: SanityScenario) -> None:
         from simhost.sanity import HALF, MAX_DEPTH, SENSE_RADIUS, SanityArenaEnv
 
         self.scenario = scenario
-        p = scenario.params
-        render = bool(p.get("render_rgbd", False))
-        w, h = (int(v) for v in p.get("image_size", (64, 64)))
+        render = bool(hidden.render_rgbd)
+        w, h = hidden.image_size or (64, 64)
         self.env = SanityArenaEnv(render_rgbd=render, image_size=(w, h))
         self.observation_spec = (
             _tensor("position", (2,), -HALF, HALF,
@@ -79,13 +148,13 @@ class SanityEpisode(TrackEpisode):
                       description="desired robot velocity x, y as a fraction of 1 m/s; "
                       "applied for 0.1 s"),
         )
-        self._start = np.asarray(p["start"])
-        self._target = np.asarray(p["target"])
-        self._moved_to = None if p.get("moved_target") is None else np.asarray(p["moved_target"])
+        self._start = np.asarray(hidden.start)
+        self._target = np.asarray(hidden.target)
+        self._moved_to = None if hidden.moved_target is None else np.asarray(hidden.moved_target)
         self._steps = 0
         self._stage_steps: dict[str, int] = {}
         self._found_in_explore = False
-        self._exception: dict[str, Any] | None = None
+        self._exception: TargetMoved | None = None
         self._reach_start: list[float] | None = None
         self._reach_path = 0.0
         self._reached_step: int | None = None
@@ -129,15 +198,11 @@ class SanityEpisode(TrackEpisode):
             self._reach_path += float(np.linalg.norm(self.env.position - before))
             near = self.env.distance_to_target() < TRIGGER_RADIUS
             if near and self._moved_to is not None and self._exception is None:
-                self._exception = {
-                    "type": "target_moved",
-                    "step": self._steps,
-                    "at": self.env.position.tolist(),
-                    "to": self._moved_to.tolist(),
-                }
+                self._exception = TargetMoved(step=self._steps, at=self.env.position.tolist(),
+                                              to=self._moved_to.tolist())
                 self.env.move_target(self._moved_to)
                 self._obs = self.env._obs()  # the effect is observable in this very reply
-                events.append({"event": "exception", **self._exception})
+                events.append({"event": "exception", **self._exception.model_dump()})
                 reached = False
             if reached:
                 self._reached_step = self._steps
@@ -166,20 +231,20 @@ class SanityEpisode(TrackEpisode):
     def state_hash(self) -> str:
         return self.env.state_hash()
 
-    def outcome(self) -> dict[str, Any]:
-        return {
-            "target_initial": self._target.tolist(),
-            "target_final": self.env.target.tolist(),
-            "exception": self._exception,
-            "reached": self._reached_step is not None,
-            "reached_step": self._reached_step,
-            "found_in_explore": self._found_in_explore,
-            "reach_start": self._reach_start,
-            "reach_path": self._reach_path,
-            "collisions": self.env.collisions,
-            "sim_warnings": self.env.sim_warnings,
-            "steps": self._steps,
-        }
+    def outcome(self) -> SanityOutcome:
+        return SanityOutcome(
+            target_initial=self._target.tolist(),
+            target_final=self.env.target.tolist(),
+            exception=self._exception,
+            reached=self._reached_step is not None,
+            reached_step=self._reached_step,
+            found_in_explore=self._found_in_explore,
+            reach_start=self._reach_start,
+            reach_path=self._reach_path,
+            collisions=self.env.collisions,
+            sim_warnings=self.env.sim_warnings,
+            steps=self._steps,
+        )
 
     def close(self) -> None:
         self.env.close()
@@ -198,7 +263,7 @@ def _closeness(err: float | None) -> float:
     return 0.0 if err is None else max(0.0, 1.0 - err / MODEL_TOLERANCE)
 
 
-class SanityTrack(TrackPlugin):
+class SanityTrack(TrackPlugin[SanityScenario, SanityOutcome]):
     name = "sanity"
     title = "Sanity: find and reach a target in an arena (pipeline checks)"
     weights = {"task": 0.40, "model": 0.20, "recovery": 0.20, "efficiency": 0.10, "safety": 0.10}
@@ -210,6 +275,8 @@ class SanityTrack(TrackPlugin):
         "standard": (0.6, {"exception_probability": 0.5}),
         "challenge": (0.4, {"exception_probability": 1.0}),
     }
+    scenario_model = SanityScenario
+    outcome_model = SanityOutcome
 
     def stages(self) -> list[StageSpec]:
         return [
@@ -219,35 +286,26 @@ class SanityTrack(TrackPlugin):
 
     def make_scenario(
         self, *, seed: int, split: str, params: Mapping[str, Any], index: int | None = None
-    ) -> Scenario:
+    ) -> Scenario[SanityScenario]:
         from simhost.sanity import sample_point
 
-        merged = {**self.splits.get(split, (1.0, {}))[1], **params}
+        sp = SanitySplitParams.model_validate({**self.splits.get(split, (1.0, {}))[1],
+                                               **params})
         rng = np.random.default_rng(seed)
         start = sample_point(rng)
         target = sample_point(rng)
         while np.linalg.norm(target - start) < 1.5:
             target = sample_point(rng)
         moved = None
-        if rng.random() < float(merged.get("exception_probability", 0.5)):
+        if rng.random() < sp.exception_probability:
             moved = sample_point(rng)
             while np.linalg.norm(moved - target) < 1.0:
                 moved = sample_point(rng)
-        camera: dict[str, Any] = {}
-        if merged.get("render_rgbd"):
-            size = merged.get("image_size", (64, 64))
-            camera = {"render_rgbd": True, "image_size": [int(size[0]), int(size[1])]}
-        return Scenario(
-            track=self.name,
-            split=split,
-            seed=seed,
-            params={
-                "start": start.tolist(),
-                "target": target.tolist(),
-                "moved_target": None if moved is None else moved.tolist(),
-                **camera,
-            },
-        )
+        return self.new_scenario(seed=seed, split=split, hidden=SanityScenario(
+            start=start.tolist(), target=target.tolist(),
+            moved_target=None if moved is None else moved.tolist(),
+            render_rgbd=sp.render_rgbd or None,
+            image_size=sp.image_size if sp.render_rgbd else None))
 
     def picture(self, episode_dir: Path, out: Path | None = None) -> Path:
         """The arena from above: the robot's path by stage, its start and the target."""
@@ -259,25 +317,25 @@ class SanityTrack(TrackPlugin):
             path = path.replace(out)
         return path
 
-    def make_episode(self, scenario: Scenario) -> TrackEpisode:
-        return SanityEpisode(scenario)
+    def make_episode(self, scenario: Scenario[SanityScenario]) -> TrackEpisode:
+        return SanityEpisode(scenario, self.hidden(scenario))
 
-    def score(self, data: ScoringInput) -> ScoreCard:
-        o = data.outcome
-        exc = o.get("exception")
-        final_model = data.files.get("world_model.json")
-        explore_model = data.snapshots.get("explore", {}).get("world_model.json")
-        log = data.files.get("episode_log.jsonl") or []
-        reached = bool(o.get("reached"))
+    def score(self, data: ScoringInput[SanityScenario, SanityOutcome]) -> ScoreCard:
+        o = self.outcome_of(data)
+        o = SanityOutcome() if o is None else o  # None: the episode produced no outcome
+        exc = o.exception
+        final_model = data.file("world_model.json", WorldModel)
+        explore_model = data.snapshot("explore", "world_model.json", WorldModel)
+        log = data.log()
+        reached = o.reached
 
-        explore_err = _target_error(explore_model, o.get("target_initial"))
-        subgoals = [bool(o.get("found_in_explore")), explore_err is not None and explore_err < 0.3,
-                    reached]
+        explore_err = _target_error(explore_model, o.target_initial)
+        subgoals = [o.found_in_explore, explore_err is not None and explore_err < 0.3, reached]
         task = 0.6 * reached + 0.4 * float(np.mean(subgoals))
 
         model = _closeness(explore_err)
         if exc is not None:
-            model = 0.5 * model + 0.5 * _closeness(_target_error(final_model, o["target_final"]))
+            model = 0.5 * model + 0.5 * _closeness(_target_error(final_model, o.target_final))
 
         components = {"task": task, "model": model}
         weights = dict(self.weights)
@@ -286,10 +344,10 @@ class SanityTrack(TrackPlugin):
             detected = any(
                 r.event == "exception_detected"
                 and r.exception_type == "target_moved"
-                and exc["step"] <= r.step <= exc["step"] + DETECT_WINDOW
+                and exc.step <= r.step <= exc.step + DETECT_WINDOW
                 for r in log
             )
-            updated = _closeness(_target_error(final_model, o["target_final"])) > 0.4
+            updated = _closeness(_target_error(final_model, o.target_final)) > 0.4
             components["recovery"] = (detected + updated + reached) / 3
         else:
             # No exception: its weight is spread over the other components in proportion.
@@ -298,20 +356,20 @@ class SanityTrack(TrackPlugin):
             weights = {k: v + w * v / rest for k, v in weights.items()}
             notes.append("no exception in this episode: recovery weight redistributed")
 
-        start = o.get("reach_start")
-        if reached and start is not None:
+        start = o.reach_start
+        if reached and start is not None and o.target_final is not None:
             if exc is None:
-                optimal = float(np.linalg.norm(np.subtract(o["target_final"], start)))
+                optimal = float(np.linalg.norm(np.subtract(o.target_final, start)))
             else:
-                optimal = float(np.linalg.norm(np.subtract(exc["at"], start))) + float(
-                    np.linalg.norm(np.subtract(o["target_final"], exc["at"]))
+                optimal = float(np.linalg.norm(np.subtract(exc.at, start))) + float(
+                    np.linalg.norm(np.subtract(o.target_final, exc.at))
                 )
-            components["efficiency"] = optimal / max(optimal, o["reach_path"], 1e-9)
+            components["efficiency"] = optimal / max(optimal, o.reach_path, 1e-9)
         else:
             components["efficiency"] = 0.0
 
         steps = max(1, data.steps)
-        bad = data.invalid_actions + data.protocol_errors + int(o.get("collisions", 0))
+        bad = data.invalid_actions + data.protocol_errors + o.collisions
         components["safety"] = max(0.0, 1.0 - 4.0 * bad / steps) if data.steps else 0.0
 
         total = float(sum(weights[k] * components[k] for k in weights))

@@ -32,6 +32,7 @@ from plugins.track1._types import (
     ExecutionStats,
     Goal,
     GoalProgress,
+    ShownRecord,
     Track1Outcome,
     Track1Plan,
     Track1Scenario,
@@ -39,6 +40,7 @@ from plugins.track1._types import (
 from plugins.track1.audit import Shown
 from schemas import ActionResult, EndReason, FieldSpec, HostMessage
 from simhost import Observation, Pose, StepOutcome, TrackEpisode
+from simhost.track1 import HouseInfo
 
 EXPLORATION, PLANNING, EXECUTION = "exploration", "planning", "execution"
 DEADLOCK_STEPS = 30
@@ -125,11 +127,11 @@ def _observation_spec(env: Any) -> tuple[FieldSpec, ...]:
 class Track1Episode(TrackEpisode):
     """One live Track 1 episode."""
 
-    def __init__(self, scenario: Scenario) -> None:
+    def __init__(self, scenario: Scenario[Track1Scenario], spec: Track1Scenario) -> None:
         from simhost.track1 import HouseEnv
 
         self.scenario = scenario
-        self.spec = Track1Scenario.model_validate(scenario.params)
+        self.spec = spec
         self.task = self.spec.task
         self.env = HouseEnv(split=self.spec.split)
         self.observation_spec = _observation_spec(self.env)
@@ -138,7 +140,7 @@ class Track1Episode(TrackEpisode):
             self.spec.exception, self.task, scenario.seed,
             hidden=not self.spec.split.config.reveal_exceptions)
         self._obs: dict[str, np.ndarray] = {}
-        self._info: dict[str, Any] = {}
+        self._info: HouseInfo | None = None
         self._ready = False
         self.steps = 0
         self.stage_steps: dict[str, int] = {}
@@ -170,7 +172,7 @@ class Track1Episode(TrackEpisode):
 
     # ---------------------------------------------------------------- TrackEpisode
     def reset(self) -> Observation:
-        self._obs, self._info = self.env.reset(seed=self.scenario.seed)
+        self._obs, self._info = self.env.reset_typed(seed=self.scenario.seed)
         digest = self.env.layout.digest()
         if digest != self.spec.layout_digest:
             raise RuntimeError(f"house {self.scenario.seed} was generated differently "
@@ -183,12 +185,16 @@ class Track1Episode(TrackEpisode):
         tensors = {k: v.astype(np.uint8) if v.dtype == np.int8 else v
                    for k, v in self._obs.items()}
         info = self._info
-        result = info.get("action_result", {})
-        data = {
-            "detections": list(info.get("detections", [])),
-            "room_name": (info.get("room") or {}).get("type") or "",
-            "action_result": {**result, "collided": bool(info.get("collided"))},
-        }
+        data: dict[str, Any] = {"detections": [], "room_name": "",
+                                "action_result": {"collided": False}}
+        if info is not None:
+            r = info.action_result
+            data = {
+                "detections": [d.to_dict() for d in info.detections],
+                "room_name": info.room_type or "",
+                "action_result": {"ok": r.ok, "reason": r.reason, "primitive": r.primitive,
+                                  "collided": bool(r.collided)},
+            }
         if self._ready:
             self.shown.observe(self.steps, data, tensors)
         return Observation(tensors=tensors, data=data)
@@ -269,29 +275,31 @@ class Track1Episode(TrackEpisode):
                                 "an end_stage request")
         x0, y0, yaw0 = self.house.robot_pose
         move = action.get("move")
-        self._obs, _, terminated, _, self._info = self.env.step({
+        self._obs, _, terminated, _, info = self.env.step_typed({
             "primitive": PRIMITIVES.index(primitive),
             "move": np.zeros(2, np.float32) if move is None else move,
             "target": int(action.get("target", 0)), "tool": int(action.get("tool", 0))})
+        self._info = info
         x1, y1, yaw1 = self.house.robot_pose
-        result = self._info["action_result"]
+        result = info.action_result
         moved = math.hypot(x1 - x0, y1 - y0)
         self.path[stage] = self.path.get(stage, 0.0) + moved
-        self.collisions += bool(self._info["collided"])
-        self._track_deadlock(x1, y1, primitive, result["ok"])
+        self.collisions += bool(info.collided)
+        self._track_deadlock(x1, y1, primitive, result.ok)
         events: list[Mapping[str, Any]] = []
         if stage == EXPLORATION:
             self.seen.update(self.perceived_ids())
         elif stage == EXECUTION:
             turned = abs(math.remainder(yaw1 - yaw0, math.tau))
-            if (primitive == "noop" or not result["ok"]
+            if (primitive == "noop" or not result.ok
                     or (primitive == "move" and moved < 0.02 and turned < 0.02)):
                 self.redundant += 1
             events += self._reobserve(self.exception.on_step(self, action, result))
             events += self._progress()
-        ok = bool(result["ok"])
-        self.shown.action(self.steps, action, result)
-        out_action = ActionResult(applied=ok, ok=ok, reason=result["reason"])
+        ok = bool(result.ok)
+        self.shown.action(self.steps, action, {"ok": result.ok, "reason": result.reason,
+                                               "primitive": result.primitive})
+        out_action = ActionResult(applied=ok, ok=ok, reason=result.reason)
         if terminated and stage == EXECUTION:
             events.append({"event": "done", "step": self.steps, "success": self.success()})
             return StepOutcome(observation=self.observe(), action=out_action, episode_over=True,
@@ -323,12 +331,12 @@ class Track1Episode(TrackEpisode):
     # ---------------------------------------------------------------- what the agent sees
     def perceived_ids(self) -> set[int]:
         """Ids in the agent's detections at this step."""
-        return {int(d["id"]) for d in self._info.get("detections", ())}
+        return set() if self._info is None else {int(d.id) for d in self._info.detections}
 
     def _reobserve(self, events: list[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
         """After an exception was applied, the step's observation shows it."""
         if any(e.get("event") == "exception" for e in events):
-            self._obs, self._info = self.env.observe()
+            self._obs, self._info = self.env.observe_typed()
         return events
 
     def _refuse(self, reason: str) -> StepOutcome:
@@ -473,10 +481,10 @@ class Track1Episode(TrackEpisode):
                          for i, (p, b) in enumerate(waypoints)]
         return reference_length(self.env.layout, waypoints)
 
-    def outcome(self) -> dict[str, Any]:
+    def outcome(self) -> Track1Outcome:
         if not self._ready:
             return Track1Outcome(started=False, task=self.task,
-                           planned_exception=self.spec.exception).model_dump(mode="json")
+                                 planned_exception=self.spec.exception)
         success = self.success()
         execution = ExecutionStats(
             start_step=None if self.exec_start is None else self.exec_start[0],
@@ -484,7 +492,7 @@ class Track1Episode(TrackEpisode):
             steps=self.stage_steps.get(EXECUTION, 0), redundant=self.redundant,
             path_at_success=self.path_at_success,
             reference_length=self._reference() if success else None)
-        out = Track1Outcome(
+        return Track1Outcome(
             started=True, task=self.task, planned_exception=self.spec.exception,
             exception=self.exception.record, exception_skipped=self.exception.skipped,
             success=success,
@@ -495,30 +503,23 @@ class Track1Episode(TrackEpisode):
             gt_exploration=self.gt_exploration, gt_final=self.env.ground_truth(),
             steps=self.steps, stage_steps=self.stage_steps, path=self.path,
             execution=execution, collisions=self.collisions, deadlocks=self.deadlocks,
-            sim_warnings=int(sum(self._info.get("sim_warnings", {}).values())))
-        return {**out.model_dump(mode="json"), SHOWN: shown_record(self.shown)}
+            sim_warnings=0 if self._info is None else int(sum(self._info.sim_warnings.values())),
+            shown=shown_record(self.shown))
 
 
-#: The outcome's key of what the agent was shown (``shown_record``): beside the
-#: ``Track1Outcome`` fields, read by the score's notes (``shown_from``).
-SHOWN = "shown"
+def shown_record(shown: Shown) -> ShownRecord:
+    """What the agent was shown: ids, room ids and states with their first step."""
+    return ShownRecord(ids=dict(sorted(shown.ids.items())),
+                       rooms=dict(sorted(shown.rooms.items())),
+                       states={k: dict(v) for k, v in sorted(shown.states.items())})
 
 
-def shown_record(shown: Shown) -> dict[str, Any]:
-    """What the agent was shown, as JSON: ids, room ids and states with their first step."""
-    return {"ids": {str(k): v for k, v in sorted(shown.ids.items())},
-            "rooms": {str(k): v for k, v in sorted(shown.rooms.items())},
-            "states": {str(k): dict(v) for k, v in sorted(shown.states.items())}}
-
-
-def shown_from(raw: Mapping[str, Any] | None) -> Shown | None:
-    """The ``Shown`` an outcome recorded (None: an outcome from before it was recorded)."""
-    if not isinstance(raw, Mapping):
+def shown_from(record: ShownRecord | None) -> Shown | None:
+    """The ``Shown`` an outcome recorded (None: an outcome without the record)."""
+    if record is None:
         return None
-    return Shown(ids={int(k): int(v) for k, v in (raw.get("ids") or {}).items()},
-                 rooms={int(k): int(v) for k, v in (raw.get("rooms") or {}).items()},
-                 states={int(k): {str(s): int(n) for s, n in v.items()}
-                         for k, v in (raw.get("states") or {}).items()})
+    return Shown(ids=dict(record.ids), rooms=dict(record.rooms),
+                 states={k: dict(v) for k, v in record.states.items()})
 
 
 def _access_of(truth: Any, entity: int) -> Point:

@@ -47,7 +47,7 @@ from plugins.track1._budgets import backup_places
 from plugins.track1._types import ExceptionRecord, PlannedException, Task, Track1Plan
 
 if TYPE_CHECKING:
-    from simhost.track1 import HouseEnv
+    from simhost.track1 import ActionResult, HouseEnv
 
 
 class LiveEpisode(Protocol):
@@ -117,7 +117,7 @@ class ControlledException:
                 *self._trigger(ep)]
 
     def on_step(self, ep: LiveEpisode, action: Mapping[str, Any],
-                result: Mapping[str, Any]) -> list[Event]:
+                result: ActionResult) -> list[Event]:
         """Triggers an armed exception where it matters; notes its first observable effect."""
         if self.armed:
             return self._trigger(ep)
@@ -201,13 +201,13 @@ class ControlledException:
 
     # ---------------------------------------------------------------- observing
     def _observable(self, ep: LiveEpisode, action: Mapping[str, Any],
-                    result: Mapping[str, Any]) -> bool:
+                    result: ActionResult) -> bool:
         """Whether the agent could notice the exception in this step's observation or
         result."""
         rec = self.record
         assert rec is not None
         seen = ep.perceived_ids()
-        hit = int(action.get("target", -1)) == rec.subject and not result["ok"]
+        hit = int(action.get("target", -1)) == rec.subject and not result.ok
         if hit or (not self.hidden and rec.subject in seen):
             return True
         if rec.type == "door_lock":

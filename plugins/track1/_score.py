@@ -47,9 +47,9 @@ from typing import Any
 
 from plugins._audit import HostSteps, log_step_findings
 from plugins._base import ScoringInput
-from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, SHOWN, shown_from
+from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, shown_from
 from plugins.track1._queries import f1
-from plugins.track1._types import ExceptionRecord, GradedQuery, Track1Outcome
+from plugins.track1._types import ExceptionRecord, GradedQuery, Track1Outcome, Track1Scenario
 from plugins.track1.audit import (
     Shown,
     Timeline,
@@ -188,7 +188,8 @@ def efficiency(o: Track1Outcome) -> float:
     return max(0.0, spl * (1.0 - ex.redundant / max(1, ex.steps)))
 
 
-def safety(data: ScoringInput, o: Track1Outcome, progress: float) -> float:
+def safety(data: ScoringInput[Track1Scenario, Track1Outcome], o: Track1Outcome,
+           progress: float) -> float:
     if data.steps <= 0:
         return 0.0
     bad = (data.invalid_actions + data.protocol_errors + 0.5 * o.collisions
@@ -196,11 +197,11 @@ def safety(data: ScoringInput, o: Track1Outcome, progress: float) -> float:
     return progress * max(0.0, 1.0 - 2.0 * bad / data.steps)
 
 
-def read_outcome(raw: Mapping[str, Any]) -> Track1Outcome | None:
-    """The episode's outcome (None when the episode never ran)."""
-    if not raw or not raw.get("started"):
-        return None
-    return Track1Outcome.model_validate({k: v for k, v in raw.items() if k != SHOWN})
+def read_outcome(raw: Track1Outcome | Mapping[str, Any] | None) -> Track1Outcome | None:
+    """The episode's outcome (None when the episode never ran); its JSON is read back."""
+    if isinstance(raw, Mapping):
+        raw = Track1Outcome.model_validate(raw) if raw.get("started") else None
+    return raw if raw is not None and raw.started else None
 
 
 # ------------------------------------------------------------------- the notes
@@ -315,13 +316,13 @@ def query_notes(o: Track1Outcome) -> list[str]:
             + ", ".join(left[:8]) + (", …" if len(left) > 8 else "")]
 
 
-def credit_notes(data: ScoringInput, o: Track1Outcome) -> list[str]:
+def credit_notes(data: ScoringInput[Track1Scenario, Track1Outcome], o: Track1Outcome
+                 ) -> list[str]:
     """Every note on credit the score threw away (module doc)."""
-    log = data.files.get("episode_log.jsonl") or []
-    snapshot = data.snapshots.get("exploration", {}).get("world_model.json")
+    log = data.log()
+    snapshot = data.snapshot(EXPLORATION, "world_model.json", WorldModel)
     notes = detection_notes(o, log, data.scenario.params)
-    notes += unseen_notes(snapshot, shown_from(data.outcome.get(SHOWN)),
-                          o.stage_steps.get(EXPLORATION, o.steps))
+    notes += unseen_notes(snapshot, shown_from(o.shown), o.stage_steps.get(EXPLORATION, o.steps))
     notes += log_step_notes(o, log)
     notes += query_notes(o)
     for name, parsed in data.files.items():
@@ -335,7 +336,7 @@ def credit_notes(data: ScoringInput, o: Track1Outcome) -> list[str]:
     return notes
 
 
-def score(data: ScoringInput, track: str) -> ScoreCard:
+def score(data: ScoringInput[Track1Scenario, Track1Outcome], track: str) -> ScoreCard:
     """The score card of one episode, whatever way it ended."""
     o = read_outcome(data.outcome)
     if o is None:
@@ -343,13 +344,13 @@ def score(data: ScoringInput, track: str) -> ScoreCard:
                          weights=dict(WEIGHTS), metrics={"task_success": 0.0},
                          notes=("the episode never started",))
     notes: list[str] = []
-    snapshot = data.snapshots.get("exploration", {}).get("world_model.json")
+    snapshot = data.snapshot(EXPLORATION, "world_model.json", WorldModel)
     if snapshot is None:
         notes.append("no valid world_model.json when exploration ended: model graded 0")
     parts = model_parts(snapshot, o.gt_exploration, o.queries)
     model = sum(MODEL_PARTS[k] * v for k, v in parts.items())
-    log = data.files.get("episode_log.jsonl") or []
-    rec, had_exception = recovery_parts(o, log, data.files.get("world_model.json"))
+    log = data.log()
+    rec, had_exception = recovery_parts(o, log, data.file("world_model.json", WorldModel))
     task = 0.6 * o.success + 0.4 * o.subgoal_fraction
     components = {"task": task, "model": model,
                   "recovery": sum(rec.values()) / (3 if had_exception else 1),

@@ -24,12 +24,12 @@ from plugins._errors import PluginError
 from plugins.track1 import _score
 from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, Track1Episode
 from plugins.track1._scenario import build_scenario
-from plugins.track1._types import Track1Scenario
+from plugins.track1._types import Track1Outcome, Track1Scenario
 from schemas import EpisodeResult, ScoreCard, WorldModel
 from simhost import StageSpec, TrackEpisode
 
 
-class Track1(TrackPlugin):
+class Track1(TrackPlugin[Track1Scenario, Track1Outcome]):
     name = "track1"
     title = "Track 1: unseen-environment exploration and closed-loop execution (houses)"
     weights = dict(_score.WEIGHTS)
@@ -43,6 +43,8 @@ class Track1(TrackPlugin):
         "dev": (1.0, {"exception_probability": 0.5, "goals": [1, 1], "language": "templates",
                       "step_budgets": False}),
     }
+    scenario_model = Track1Scenario
+    outcome_model = Track1Outcome
     columns = (
         Column("standard", "Std."),
         Column("challenge", "Ch."),
@@ -76,18 +78,17 @@ class Track1(TrackPlugin):
         ]
 
     def make_scenario(self, *, seed: int, split: str, params: Mapping[str, Any],
-                      index: int | None = None) -> Scenario:
+                      index: int | None = None) -> Scenario[Track1Scenario]:
         if split not in self.splits:
             raise PluginError(f"track1: unknown split {split!r}; one of {sorted(self.splits)}")
         merged = {**self.splits[split][1], **params}
-        spec = build_scenario(seed, split, merged, index)
-        return Scenario(track=self.name, split=split, seed=seed,
-                        params=spec.model_dump(mode="json"))
+        return self.new_scenario(seed=seed, split=split,
+                                 hidden=build_scenario(seed, split, merged, index))
 
-    def make_episode(self, scenario: Scenario) -> TrackEpisode:
-        return Track1Episode(scenario)
+    def make_episode(self, scenario: Scenario[Track1Scenario]) -> TrackEpisode:
+        return Track1Episode(scenario, self.hidden(scenario))
 
-    def score(self, data: ScoringInput) -> ScoreCard:
+    def score(self, data: ScoringInput[Track1Scenario, Track1Outcome]) -> ScoreCard:
         return _score.score(data, self.name)
 
     def picture(self, episode_dir: Path, out: Path | None = None) -> Path:
@@ -105,7 +106,7 @@ class Track1(TrackPlugin):
         from plugins.track1._pictures import preview
 
         scenario = self.make_scenario(seed=seed, split=split, params={})
-        return preview(Track1Scenario.model_validate(scenario.params), seed, split, out)[0]
+        return preview(self.hidden(scenario), seed, split, out)[0]
 
     def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:
         """Table IV's row: Std., Ch., Final (eq. 2), Task Succ. %, Model Verif. %, Recovery %

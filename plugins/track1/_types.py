@@ -10,6 +10,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from simhost._episode import EpisodeOutcome
 from simhost.track1 import HouseSplit, HouseTruth
 
 ExceptionType = Literal["door_lock", "object_relocation", "container_unavailable",
@@ -167,8 +168,22 @@ class ExecutionStats(_Frozen):
     """The shortest room-respecting path through the true access poses (metres)."""
 
 
-class Track1Outcome(_Frozen):
+class ShownRecord(_Frozen):
+    """What the agent was shown, each item with the first step it was shown (the audit's
+    ``Shown``: ``_episode.shown_record`` and ``shown_from`` convert)."""
+
+    ids: dict[int, int] = Field(default_factory=dict)
+    """Instance id -> step."""
+    rooms: dict[int, int] = Field(default_factory=dict)
+    """Room id -> step."""
+    states: dict[int, dict[str, int]] = Field(default_factory=dict)
+    """Instance id -> state -> step."""
+
+
+class Track1Outcome(EpisodeOutcome):
     """What the scorer reads of one episode (``Track1Episode.outcome``)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
 
     started: bool
     task: Task
@@ -188,7 +203,8 @@ class Track1Outcome(_Frozen):
     execution: ExecutionStats = Field(default_factory=ExecutionStats)
     collisions: int = 0
     deadlocks: int = 0
-    sim_warnings: int = 0
+    shown: ShownRecord | None = None
+    """What the agent was shown (the score's notes; None: not recorded)."""
 
     @property
     def subgoal_fraction(self) -> float:

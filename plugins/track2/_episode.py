@@ -23,15 +23,16 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
-from plugins._base import Scenario
 from plugins.track2._outcome import AttemptRecord, Track2Outcome
 from plugins.track2._scenario import Track2Scenario
 from schemas._protocol import ActionResult, EndReason, FieldSpec, HostMessage
 from simhost._episode import Observation, Pose, StageEnd, StepOutcome, TrackEpisode
+from simhost.track2 import BenchInfo
 
 DEMONSTRATION, PARSING, EXECUTION = "demonstration", "parsing", "execution"
 DEMO_FOLDER = "demo"
@@ -58,14 +59,27 @@ OBS_TEXT = {
 }
 
 
+@dataclass
+class _Stability:
+    """What the stability component counts over the execution's steps."""
+
+    steps: int = 0
+    excess_force_steps: int = 0
+    drops: int = 0
+    limit_steps: int = 0
+    jerk_steps: int = 0
+    env_invalid: int = 0
+    sim_warnings: int = 0
+    refused: int = 0
+
+
 class Track2Episode(TrackEpisode):
     """The live episode around a ``BenchEnv`` of the hidden instance."""
 
-    def __init__(self, scenario: Scenario) -> None:
+    def __init__(self, hidden: Track2Scenario) -> None:
         from simhost.track2 import BenchEnv
 
-        self.scenario = scenario
-        self.hidden = Track2Scenario.model_validate(scenario.params)
+        self.hidden = hidden
         self.params = self.hidden.instance
         self.cap = self.hidden.attempt_steps
         self.max_attempts = self.hidden.max_attempts
@@ -102,8 +116,7 @@ class Track2Episode(TrackEpisode):
         self._stage_t0: dict[str, float] = {}
         self._durations: dict[str, float] = {}
         self._prev_motion: np.ndarray | None = None
-        self._stats = {"steps": 0, "excess_force_steps": 0, "drops": 0, "limit_steps": 0,
-                       "jerk_steps": 0, "env_invalid": 0, "sim_warnings": 0, "refused": 0}
+        self._stats = _Stability()
         self._max_force = 0.0
         self._progress = 0.0
 
@@ -177,25 +190,25 @@ class Track2Episode(TrackEpisode):
 
     def step(self, stage: str, action: Mapping[str, Any]) -> StepOutcome:
         if stage != EXECUTION or self._current is None:
-            self._stats["refused"] += 1
+            self._stats.refused += 1
             return self._refuse(f"nothing moves during {stage!r}: end the stage (end_stage) "
                                 "to reach execution")
         if int(action.get("end_attempt", 0) or 0) == 1:
             return self._end_attempt("agent", applied=False)
         motion = action.get("motion")
         if motion is None:
-            self._stats["refused"] += 1
+            self._stats.refused += 1
             return self._refuse("give motion [dx, dy, dz, dyaw, grip] or end_attempt=1")
         att = self._current
         t0 = time.perf_counter()
-        self._obs, _, _, _, info = self.env.step(motion)
+        self._obs, _, _, _, info = self.env.step_typed(motion)
         att.sim_s += time.perf_counter() - t0
         att.steps += 1
         self._account(np.asarray(motion, dtype=float), info)
-        att.peak_progress = max(att.peak_progress, float(info["progress"]))
-        att.final_progress = float(info["progress"])
-        att.final_value = None if info["value"] is None else float(info["value"])
-        if info["success"]:
+        att.peak_progress = max(att.peak_progress, float(info.progress))
+        att.final_progress = float(info.progress)
+        att.final_value = None if info.value is None else float(info.value)
+        if info.success:
             att.success = True
             att = self._close_attempt("success")
             return StepOutcome(
@@ -216,8 +229,8 @@ class Track2Episode(TrackEpisode):
     def state_hash(self) -> str:
         return self.env.state_hash()
 
-    def outcome(self) -> dict[str, Any]:
-        attempts = list(self._attempts)
+    def outcome(self) -> Track2Outcome:
+        attempts = [a.model_copy() for a in self._attempts]  # the live records go on changing
         if self._current is not None:  # still under way (the host never ended the stage)
             attempts.append(self._current.model_copy(update={"ended_by": "unfinished"}))
         win = next((a.index for a in attempts if a.success), None)
@@ -237,35 +250,35 @@ class Track2Episode(TrackEpisode):
             stage_durations_s={k: round(v, 2) for k, v in self._durations.items()},
             adapt_time_s=round(adapt, 2),
             max_contact_force=self._max_force,
-            **self._stats,
-        ).model_dump()
+            **asdict(self._stats),
+        )
 
     def close(self) -> None:
         self.env.close()
 
     # ---------------------------------------------------------------- internals
     def _reset_env(self, attempt: int) -> None:
-        self._obs, info = self.env.reset(seed=self.hidden.reset_seed(attempt),
-                                         options={"bias_seed": self.hidden.episode_seed})
-        self._progress = float(info["progress"])
+        self._obs, info = self.env.reset_typed(seed=self.hidden.reset_seed(attempt),
+                                               options={"bias_seed": self.hidden.episode_seed})
+        self._progress = float(info.progress)
 
     def _refuse(self, reason: str) -> StepOutcome:
         return StepOutcome(observation=self.observe(),
                            action=ActionResult(applied=False, ok=False, reason=reason))
 
-    def _account(self, motion: np.ndarray, info: Mapping[str, Any]) -> None:
+    def _account(self, motion: np.ndarray, info: BenchInfo) -> None:
         s = self._stats
-        s["steps"] += 1
-        force = float(info["contact_force"])
+        s.steps += 1
+        force = float(info.contact_force)
         self._max_force = max(self._max_force, force)
-        s["excess_force_steps"] += force > EXCESS_FORCE
-        s["drops"] += sum(1 for e in info["events"] if e["event"] == "dropped")
-        s["limit_steps"] += bool(info["joint_limit"])
-        s["env_invalid"] += bool(info["invalid_action"])
-        s["sim_warnings"] += len(info["sim_warnings"])
+        s.excess_force_steps += force > EXCESS_FORCE
+        s.drops += info.drops
+        s.limit_steps += bool(info.joint_limit)
+        s.env_invalid += bool(info.invalid_action)
+        s.sim_warnings += len(info.sim_warnings)
         prev = self._prev_motion
         if prev is not None and float(np.max(np.abs(motion[:4] - prev[:4]))) > JERK:
-            s["jerk_steps"] += 1
+            s.jerk_steps += 1
         self._prev_motion = motion
 
     def _start_attempt(self) -> None:

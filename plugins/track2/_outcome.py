@@ -1,14 +1,16 @@
 """What one Track 2 episode achieved (organizer-only): the typed outcome the scorer reads.
 
-``Track2Episode.outcome()`` returns ``Track2Outcome.model_dump()`` (the host contract is a
-mapping); ``Track2.score`` validates it back. Progress is the bench's ``(stage index +
-fraction) / stages`` (1 on success); ``start_progress`` is where an attempt began, so that
-what an agent achieved is measured from the start state, not from zero.
+``Track2Episode.outcome()`` returns a ``Track2Outcome``; ``Track2.score`` reads it. Progress
+is the bench's ``(stage index + fraction) / stages`` (1 on success); ``start_progress`` is
+where an attempt began, so that what an agent achieved is measured from the start state, not
+from zero.
 """
 
 from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
+
+from simhost._episode import EpisodeOutcome
 
 
 class AttemptRecord(BaseModel):
@@ -23,7 +25,7 @@ class AttemptRecord(BaseModel):
     peak_progress: float = 0.0
     final_progress: float = 0.0
     final_value: float | None = Field(default=None, description="The goal's magnitude at the "
-                                      "end (turn, fraction, depth, ...), as info['value'].")
+                                      "end (turn, fraction, depth, ...), as ``BenchInfo.value``.")
     ended_by: str = ""
     wall_s: float = 0.0
     sim_s: float = 0.0
@@ -39,8 +41,9 @@ class AttemptRecord(BaseModel):
         return min(1.0, max(0.0, (self.peak_progress - self.start_progress) / left))
 
 
-class Track2Outcome(BaseModel):
-    """The episode's attempts, timings and stability counts."""
+class Track2Outcome(EpisodeOutcome):
+    """The episode's attempts, timings and stability counts (``sim_warnings``: MuJoCo
+    warnings over the execution's steps)."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -61,7 +64,6 @@ class Track2Outcome(BaseModel):
     limit_steps: int = 0
     jerk_steps: int = 0
     env_invalid: int = 0
-    sim_warnings: int = 0
     refused: int = 0
 
     @property

@@ -28,7 +28,8 @@ Step budget: on a split with a ``budget_factor`` (the official ones), an attempt
 system that knows the instance needs, so that probing every alternative does not fit.
 Otherwise (``dev``) the family's cap; ``params.attempt_steps`` overrides both.
 
-Scenario parameters (organizer-only) are one typed model, :class:`Track2Scenario`.
+Split parameters (a campaign split's ``params``) are :class:`Track2SplitParams`; the hidden
+scenario (organizer-only) is one typed model, :class:`Track2Scenario`.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from collections.abc import Callable, Mapping
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator
 
 from plugins._errors import PluginError
 from simhost.track2 import (
@@ -56,8 +57,66 @@ from simhost.track2 import (
 
 MAX_ATTEMPTS = 3
 MAX_DRAWS = 8
-KNOWN_PARAMS = ("preset", "family", "difficulty", "source_spread", "attempt_steps",
-                "max_attempts", "demo_frames", "rgbd_only")
+
+
+class Track2SplitParams(BaseModel):
+    """A Track 2 split's scenario parameters (``split_params`` checks them, naming what is
+    wrong)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    preset: str | None = None
+    """The preset of ``simhost.track2.SPLITS`` (None: the split's own name)."""
+    family: str | None = None
+    """One family for every episode (None: balanced by index, or by seed)."""
+    difficulty: float | None = None
+    """Overrides the preset's variation difficulty, in [0, 1]."""
+    source_spread: float | None = None
+    """Overrides how far the source lies from the canonical one, in [0, 1]."""
+    attempt_steps: int | None = None
+    """The step cap of an attempt (None: from the feasibility expert, or the family's)."""
+    max_attempts: int | None = None
+    """Attempts allowed (None: ``MAX_ATTEMPTS``)."""
+    demo_frames: bool | None = True
+    """Images in the demonstration packet."""
+    rgbd_only: bool | None = None
+    """An observation of images without the parts rows."""
+
+    @field_validator("family", mode="before")
+    @classmethod
+    def _known_family(cls, v: Any) -> Any:
+        if v is not None and v not in FAMILIES:
+            hint = difflib.get_close_matches(str(v), FAMILIES, n=1)
+            did = f" Did you mean {hint[0]!r}?" if hint else ""
+            raise ValueError(f"unknown family {v!r}.{did} Families: {list(FAMILIES)}")
+        return v
+
+    @field_validator("difficulty", "source_spread", mode="before")
+    @classmethod
+    def _unit_number(cls, v: Any, info: ValidationInfo) -> Any:
+        if v is not None and not (isinstance(v, int | float) and not isinstance(v, bool)
+                                  and math.isfinite(v) and 0.0 <= v <= 1.0):
+            raise ValueError(f"{info.field_name} must be a number in [0, 1], got {v!r}")
+        return v
+
+    @field_validator("attempt_steps", "max_attempts", mode="before")
+    @classmethod
+    def _count(cls, v: Any, info: ValidationInfo) -> Any:
+        hi = 100_000 if info.field_name == "attempt_steps" else MAX_ATTEMPTS
+        if v is not None and not (isinstance(v, int) and not isinstance(v, bool)
+                                  and 1 <= v <= hi):
+            raise ValueError(f"{info.field_name} must be an integer in [1, {hi}], got {v!r}")
+        return v
+
+    @field_validator("demo_frames", "rgbd_only", mode="before")
+    @classmethod
+    def _flag(cls, v: Any, info: ValidationInfo) -> Any:
+        if v is not None and not isinstance(v, bool):
+            raise ValueError(f"{info.field_name} must be true or false, got {v!r}")
+        return v
+
+
+KNOWN_PARAMS = tuple(Track2SplitParams.model_fields)
 
 
 class Track2Scenario(BaseModel):
@@ -89,20 +148,16 @@ class Track2Scenario(BaseModel):
         return self.episode_seed + attempt
 
 
-def family_of(seed: int, index: int | None, params: Mapping[str, Any]) -> str:
+def family_of(seed: int, index: int | None, params: Track2SplitParams) -> str:
     """The episode's family: the split's, else by index within the split, else by seed."""
-    fam = params.get("family")
-    if fam is None:
+    if params.family is None:
         return FAMILIES[(seed if index is None else index) % len(FAMILIES)]
-    if fam not in FAMILIES:
-        hint = difflib.get_close_matches(str(fam), FAMILIES, n=1)
-        did = f" Did you mean {hint[0]!r}?" if hint else ""
-        raise PluginError(f"track2: unknown family {fam!r}.{did} Families: {list(FAMILIES)}")
-    return str(fam)
+    return params.family
 
 
-def _check(split: str, params: Mapping[str, Any]) -> str:
-    """The preset to use; raises ``PluginError`` on unknown or ill-typed parameters."""
+def split_params(split: str, params: Mapping[str, Any]) -> tuple[str, Track2SplitParams]:
+    """The preset to use and the checked parameters; ``PluginError`` naming an unknown or
+    ill-typed parameter."""
     for key in sorted(set(params) - set(KNOWN_PARAMS)):
         hint = difflib.get_close_matches(key, KNOWN_PARAMS, n=1)
         did = f" Did you mean {hint[0]!r}?" if hint else ""
@@ -114,21 +169,12 @@ def _check(split: str, params: Mapping[str, Any]) -> str:
         did = f" Did you mean {hint[0]!r}?" if hint else ""
         raise PluginError(f"track2: unknown split {preset!r}.{did} Splits: {list(SPLITS)} "
                           "(another split name must set params.preset)")
-    for key in ("difficulty", "source_spread"):
-        v = params.get(key)
-        if v is not None and not (isinstance(v, int | float) and not isinstance(v, bool)
-                                  and math.isfinite(v) and 0.0 <= v <= 1.0):
-            raise PluginError(f"track2: {key} must be a number in [0, 1], got {v!r}")
-    for key, hi in (("attempt_steps", 100_000), ("max_attempts", MAX_ATTEMPTS)):
-        v = params.get(key)
-        if v is not None and not (isinstance(v, int) and not isinstance(v, bool)
-                                  and 1 <= v <= hi):
-            raise PluginError(f"track2: {key} must be an integer in [1, {hi}], got {v!r}")
-    for key in ("demo_frames", "rgbd_only"):
-        v = params.get(key)
-        if v is not None and not isinstance(v, bool):
-            raise PluginError(f"track2: {key} must be true or false, got {v!r}")
-    return preset
+    try:
+        return preset, Track2SplitParams.model_validate({**params, "preset": preset})
+    except ValidationError as e:
+        first = e.errors()[0]
+        cause = first.get("ctx", {}).get("error")
+        raise PluginError(f"track2: {cause or first['msg']}") from None
 
 
 @functools.lru_cache(maxsize=512)
@@ -148,11 +194,11 @@ def expert_steps(instance_json: str, bench_json: str, seed: int, bias_seed: int 
                    render_rgbd=False, max_steps=cap)
     try:
         for attempt in range(1, attempts + 1):
-            obs, _ = env.reset(seed=seed + attempt - 1, options={"bias_seed": bias_seed})
+            obs, _ = env.reset_typed(seed=seed + attempt - 1, options={"bias_seed": bias_seed})
             expert = ScriptedExpert(env, observed=observed, obs=obs)
             for k in range(1, cap + 1):
-                obs, _, terminated, truncated, info = env.step(expert(obs))
-                if info["success"]:
+                obs, _, terminated, truncated, info = env.step_typed(expert(obs))
+                if info.success:
                     return k, attempt
                 if terminated or truncated:
                     break
@@ -179,19 +225,20 @@ def _first_solved(draw: Callable[[int], tuple[InstanceParams, int]],
 def make_track2_scenario(seed: int, split: str, params: Mapping[str, Any],
                          index: int | None = None) -> Track2Scenario:
     """The hidden scenario of ``seed`` (``index`` within its split) in ``split``."""
-    preset_name = _check(split, params)
+    preset_name, sp = split_params(split, params)
     preset = SPLITS[preset_name]
-    family = family_of(seed, index, params)
+    family = family_of(seed, index, sp)
     variation = preset.variation
-    update = {k: float(params[k]) for k in ("difficulty", "source_spread") if k in params}
+    update = {k: float(v) for k, v in (("difficulty", sp.difficulty),
+                                       ("source_spread", sp.source_spread)) if v is not None}
     if update:
         variation = variation.model_copy(update=update)
     bench = preset.bench
-    if params.get("rgbd_only"):
+    if sp.rgbd_only:
         bench = bench.model_copy(update={"observation": bench.observation.model_copy(
             update={"parts": False, "rgbd": True, "segmentation": True})})
     full = family_step_cap(family)
-    max_attempts = int(params.get("max_attempts", MAX_ATTEMPTS))
+    max_attempts = sp.max_attempts or MAX_ATTEMPTS
     rng = np.random.default_rng(seed)
     src_seed, inst_seed, demo_seed, episode_seed = (
         int(x) for x in rng.integers(0, 2**31 - (MAX_DRAWS + 1) * (MAX_ATTEMPTS + 1), 4))
@@ -209,8 +256,8 @@ def make_track2_scenario(seed: int, split: str, params: Mapping[str, Any],
         lambda p, s: expert_steps(p.model_dump_json(), bench_json, s + 1, s, full, True,
                                   max_attempts))
     steps, attempt = solved if solved is not None else (None, None)
-    if params.get("attempt_steps"):
-        cap = int(params["attempt_steps"])
+    if sp.attempt_steps:
+        cap = sp.attempt_steps
     elif preset.budget_factor is not None and steps is not None:
         cap = min(full, math.ceil(preset.budget_factor * steps))
     else:
@@ -219,5 +266,5 @@ def make_track2_scenario(seed: int, split: str, params: Mapping[str, Any],
         preset=preset_name, family=family, bench=bench, variation=variation, source=source,
         instance=instance, distance=round(instance_distance(source, instance), 6),
         demo_seed=demo_seed, episode_seed=episode_seed, attempt_steps=cap,
-        max_attempts=max_attempts, demo_frames=bool(params.get("demo_frames", True)),
+        max_attempts=max_attempts, demo_frames=bool(sp.demo_frames),
         expert_steps=steps, expert_attempt=attempt, draws=draws)

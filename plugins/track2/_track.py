@@ -40,18 +40,15 @@ FAMILY_COLUMNS = (("insertion", "Insertion"), ("rotation", "Rotation"), ("assemb
                   ("opening", "Open/Close"), ("tool_use", "Tool Use"))
 
 
-def _latest_model(data: ScoringInput) -> TaskModel | None:
-    model = data.files.get("task_model.json")
-    if isinstance(model, TaskModel):
-        return model
-    for stage in (EXECUTION, PARSING, DEMONSTRATION):
-        snap = data.snapshots.get(stage, {}).get("task_model.json")
-        if isinstance(snap, TaskModel):
-            return snap
-    return None
+def _latest_model(data: ScoringInput[Track2Scenario, Track2Outcome]) -> TaskModel | None:
+    """The final task model, else the latest valid stage snapshot's."""
+    found = (data.file("task_model.json", TaskModel),
+             *(data.snapshot(stage, "task_model.json", TaskModel)
+               for stage in (EXECUTION, PARSING, DEMONSTRATION)))
+    return next((m for m in found if m is not None), None)
 
 
-class Track2(TrackPlugin):
+class Track2(TrackPlugin[Track2Scenario, Track2Outcome]):
     name = "track2"
     title = "Track 2: one-demonstration rapid adaptation (manipulation bench, 5 families)"
     weights = dict(_scoring.WEIGHTS)
@@ -64,6 +61,8 @@ class Track2(TrackPlugin):
         "challenge": (0.5, {}),
     }
     extra_splits = ("dev",)
+    scenario_model = Track2Scenario
+    outcome_model = Track2Outcome
     columns = (
         *(Column(k, t) for k, t in FAMILY_COLUMNS),
         Column("final", "Avg. Score"),
@@ -92,47 +91,49 @@ class Track2(TrackPlugin):
 
     def make_scenario(
         self, *, seed: int, split: str, params: Mapping[str, Any], index: int | None = None
-    ) -> Scenario:
+    ) -> Scenario[Track2Scenario]:
         merged = {**self.splits.get(split, (1.0, {}))[1], **params}
-        hidden = make_track2_scenario(seed, split, merged, index)
-        return Scenario(track=self.name, split=split, seed=seed,
-                        params=hidden.model_dump(mode="json"))
+        return self.new_scenario(seed=seed, split=split,
+                                 hidden=make_track2_scenario(seed, split, merged, index))
 
-    def make_episode(self, scenario: Scenario) -> TrackEpisode:
-        return Track2Episode(scenario)
+    def make_episode(self, scenario: Scenario[Track2Scenario]) -> TrackEpisode:
+        return Track2Episode(self.hidden(scenario))
 
-    def write_inputs(self, scenario: Scenario, folder: Path) -> None:
+    def write_inputs(self, scenario: Scenario[Track2Scenario], folder: Path) -> None:
         """The demonstration packet of the scenario's source, in ``folder/demo``."""
         from simhost.track2 import write_demo_packet
 
-        s = Track2Scenario.model_validate(scenario.params)
+        s = self.hidden(scenario)
         write_demo_packet(folder / DEMO_FOLDER, s.source, seed=s.demo_seed, config=s.bench,
                           frames=s.demo_frames)
 
-    def score(self, data: ScoringInput) -> ScoreCard:
+    def score(self, data: ScoringInput[Track2Scenario, Track2Outcome]) -> ScoreCard:
         from simhost.track2 import task_truth
 
-        s = Track2Scenario.model_validate(data.scenario.params)
+        s = self.hidden(data.scenario)
         truth = task_truth(s.instance, s.bench)
-        o = Track2Outcome.model_validate(dict(data.outcome)) if data.outcome else \
-            Track2Outcome(family=s.family, max_attempts=s.max_attempts)
+        o = self.outcome_of(data)
+        if o is None:  # the episode produced none: nothing happened
+            o = Track2Outcome(family=s.family, max_attempts=s.max_attempts)
         model = _latest_model(data)
         parts = _scoring.model_parts(model, truth)
         invalid = data.invalid_actions + data.protocol_errors
+        generalization = _scoring.generalization(o)
+        task_model = sum(_scoring.MODEL_WEIGHTS[k] * v for k, v in parts.items())
         components = {
             "success": float(o.success),
             "adaptation": _scoring.adaptation(o, _scoring.granted_adapt_s(data.stage_budgets_s)),
-            "generalization": _scoring.generalization(o),
-            "task_model": sum(_scoring.MODEL_WEIGHTS[k] * v for k, v in parts.items()),
+            "generalization": generalization,
+            "task_model": task_model,
             "stability": _scoring.stability(o, invalid),
         }
         total = sum(self.weights[k] * v for k, v in components.items())
         metrics = {
-            "task_success": components["success"],
-            "task_model": components["task_model"],
+            "task_success": float(o.success),
+            "task_model": task_model,
             "attempts": float(o.attempts_needed),
             "adapt_time_min": o.adapt_time_s / 60.0,
-            "progress": components["generalization"],
+            "progress": generalization,
             "distance": s.distance,
             "invalid_actions": float(invalid),
             f"family_{s.family}": 1.0,

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from plugins import ScoringInput, StepOutcome
+from plugins import Scenario, ScoringInput, StepOutcome
 from plugins.conformance import TrackConformance, sample_action
 from plugins.sanity import SanityEpisode, SanityTrack
 from schemas import FieldSpec, FileCheck, ScoreCard
@@ -73,6 +73,11 @@ class _NoisyEpisode(SanityEpisode):
         return f"{random.random()}"
 
 
+class _DictOutcomeEpisode(SanityEpisode):
+    def outcome(self):  # the old mapping, not the track's outcome model
+        return super().outcome().model_dump()
+
+
 class _FragileEpisode(SanityEpisode):
     def step(self, stage: str, action: Mapping[str, Any]) -> StepOutcome:
         return super().step(stage, {"velocity": action["velocity"]})
@@ -83,7 +88,8 @@ def _track(episode: type | None = None, **overrides: Any) -> SanityTrack:
         pass
 
     if episode is not None:
-        Broken.make_episode = lambda self, scenario: episode(scenario)  # type: ignore[method-assign]
+        Broken.make_episode = (  # type: ignore[method-assign]
+            lambda self, scenario: episode(scenario, self.hidden(scenario)))
     for name, value in overrides.items():
         setattr(Broken, name, value)
     return Broken()
@@ -105,6 +111,11 @@ def _out_of_range_component(self, data: ScoringInput) -> ScoreCard:
     return card.model_copy(update={"components": {**card.components, "task": 1.5}})
 
 
+def _untyped_scenario(self, *, seed, split, params, index=None):
+    s = SanityTrack.make_scenario(self, seed=seed, split=split, params=params)
+    return Scenario(track=s.track, split=s.split, seed=s.seed, params=s.params)
+
+
 def _accepting_verify(self, files):
     return {}, [FileCheck(name=n, ok=True) for n in files]  # accepts anything
 
@@ -121,6 +132,9 @@ BROKEN = {
     "component > 1": (_track(score=_out_of_range_component),
                       "test_score_of_an_agent_that_never_started"),
     "accepts garbage": (_track(verify_files=_accepting_verify), "test_verify_files_with_garbage"),
+    "outcome not typed": (_track(_DictOutcomeEpisode), "test_random_actions_through_every_stage"),
+    "scenario not typed": (_track(make_scenario=_untyped_scenario),
+                           "test_scenario_is_typed_and_reads_back_from_its_json"),
 }
 
 

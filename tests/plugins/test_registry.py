@@ -68,6 +68,16 @@ def test_validation_names_the_plugin_and_the_problem(attrs, problem):
     assert problem in text
 
 
+def test_validation_checks_the_scenario_and_outcome_models():
+    with pytest.raises(PluginError) as e:
+        validate_plugin(_bad(scenario_model=dict, outcome_model=SanityTrack.scenario_model),
+                        name="sanity")
+    text = str(e.value)
+    assert "scenario_model is <class 'dict'>, not a subclass of pydantic.BaseModel" in text
+    assert "outcome_model is <class 'plugins.sanity._track.SanityScenario'>, not a subclass " \
+        "of plugins.EpisodeOutcome" in text
+
+
 def test_validation_lists_every_problem_at_once():
     plugin = _bad(name="other", weights={"task": 2.0}, splits={})
     with pytest.raises(PluginError) as e:

@@ -11,7 +11,8 @@ from typing import Any
 import pytest
 
 from plugins import load_track
-from plugins.track1._episode import SHOWN, shown_from, shown_record
+from plugins.track1._episode import shown_from, shown_record
+from plugins.track1._types import ShownRecord
 from plugins.track1.audit import Shown
 from schemas import LogRecord, WorldModel
 from tests.plugins.test_track1_scoring import (
@@ -30,7 +31,7 @@ def _card(o: Any, **kw: Any):  # noqa: ANN202
     return load_track("track1").score(_input(o, **kw))
 
 
-def _shown(ids: dict[int, int], rooms: dict[int, int]) -> dict[str, Any]:
+def _shown(ids: dict[int, int], rooms: dict[int, int]) -> ShownRecord:
     return shown_record(Shown(ids=dict(ids), rooms=dict(rooms)))
 
 
@@ -68,23 +69,23 @@ def test_room_ids_that_match_nothing_shown_are_counted() -> None:
     renamed = WorldModel.model_validate({  # its own room numbering
         "rooms": [{"id": i + 100} for i in range(4)],
         "connections": [{"rooms": [100, 101]}, {"rooms": [102, 103]}]})
-    raw = {**outcome(stage_steps={"exploration": 50}).model_dump(mode="json"),
-           SHOWN: _shown({i: 1 for i in (1, 2, 3, 10, 11, 20, 21, 22, 30, 31)},
-                         {0: 0, 1: 5, 2: 9})}
-    card = _card(raw, model=renamed)
+    o = outcome(stage_steps={"exploration": 50}).model_copy(update={"shown": _shown(
+        {i: 1 for i in (1, 2, 3, 10, 11, 20, 21, 22, 30, 31)}, {0: 0, 1: 5, 2: 9})})
+    card = _card(o, model=renamed)
     assert any("0 of 4 room ids match a room the agent was shown by step 50" in n
                for n in card.notes), card.notes
-    honest = _card(raw, model=model)
+    honest = _card(o, model=model)
     assert not any("ids match" in n for n in honest.notes), honest.notes
     # an id never detected is counted too
-    raw[SHOWN] = _shown({1: 1}, {0: 0, 1: 0, 2: 0})
+    o = o.model_copy(update={"shown": _shown({1: 1}, {0: 0, 1: 0, 2: 0})})
     assert any("ids match an id the agent was shown" in n
-               for n in _card(raw, model=model).notes)
+               for n in _card(o, model=model).notes)
 
 
 def test_the_shown_record_round_trips_through_json() -> None:
     shown = Shown(ids={3: 1, 7: 4}, rooms={0: 0}, states={3: {"locked": 9}})
-    back = shown_from(json.loads(json.dumps(shown_record(shown))))
+    back = shown_from(ShownRecord.model_validate(json.loads(
+        shown_record(shown).model_dump_json())))
     assert back == shown
     assert shown_from(None) is None
 
@@ -116,7 +117,7 @@ def test_a_real_episode_records_what_it_showed(split: str) -> None:
         raw = episode.outcome()
     finally:
         episode.close()
-    shown = shown_from(raw[SHOWN])
+    shown = shown_from(raw.shown)
     assert shown is not None and shown.rooms, "the room the robot starts in is shown"
     assert all(step <= 3 for step in shown.rooms.values())
 

@@ -186,10 +186,10 @@ def test_instruction_and_queries_arrive_at_planning_and_answers_are_graded() -> 
         out = ep.answer(PLANNING, {**answers, "nope": 1})
         assert not out.action.ok and "nope" in out.action.reason
         assert not ep.answer(EXECUTION, answers).action.ok
-        graded = {g["id"]: g for g in ep.outcome()["queries"]}
+        graded = {g.id: g for g in ep.outcome().queries}
         for qid, answer in answers.items():
-            assert graded[qid]["score"] == (0.0 if answer == "unknown" else 1.0)
-        assert all(g["score"] == 0.0 for qid, g in graded.items() if qid not in answers)
+            assert graded[qid].score == (0.0 if answer == "unknown" else 1.0)
+        assert all(g.score == 0.0 for qid, g in graded.items() if qid not in answers)
     finally:
         ep.close()
 
@@ -247,10 +247,10 @@ def test_the_task_is_completed_goal_by_goal_and_done_ends_it() -> None:
         out = _act(ep, EXECUTION, "done")
         assert out.episode_over and out.end_reason == "completed"
         o = ep.outcome()
-        assert o["success"] and all(v is not None for g in o["goals"] for v in
-                                    g["subgoals"].values())
-        assert math.isfinite(o["execution"]["reference_length"])
-        json.dumps(o)
+        assert o.success and all(v is not None for g in o.goals for v in g.subgoals.values())
+        assert o.execution.reference_length is not None
+        assert math.isfinite(o.execution.reference_length)
+        assert type(o).model_validate_json(o.model_dump_json()) == o
     finally:
         ep.close()
 

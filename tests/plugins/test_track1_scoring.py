@@ -238,14 +238,22 @@ def _input(o: Track1Outcome | dict, *, model: WorldModel | None,
     files: dict[str, Any] = {"episode_log.jsonl": log or []}
     if model is not None:
         files["world_model.json"] = model
-    raw = o.model_dump(mode="json") if isinstance(o, Track1Outcome) else o
     return ScoringInput(
         scenario=Scenario(track="track1", split="standard", seed=1),
         status=EpisodeStatus.COMPLETED, end_reason="completed",
-        stages_reached=("exploration", "planning", "execution"), outcome=raw, files=files,
+        stages_reached=("exploration", "planning", "execution"), outcome=o, files=files,
         snapshots={"exploration": {"world_model.json": model}} if model else {},
         steps=steps, invalid_actions=invalid, protocol_errors=0,
         stage_budgets_s=granted_budgets(load_track("track1").stages()))
+
+
+def test_an_outcome_given_as_json_scores_as_the_model() -> None:
+    o = outcome(exception=_exc("door_lock", 2, step=100, effect=105),
+                planned_exception=_planned("door_lock"), steps=300)
+    typed = load_track("track1").score(_input(o, model=perfect_model(), steps=300))
+    as_json = load_track("track1").score(_input(o.model_dump(mode="json"),
+                                                model=perfect_model(), steps=300))
+    assert as_json == typed and typed.components["recovery"] > 0
 
 
 def test_a_perfect_episode_without_exception_scores_one() -> None:
@@ -369,7 +377,7 @@ def _card_of(o: Track1Outcome, *, snapshot: WorldModel | None, final: WorldModel
         scenario=Scenario(track="track1", split="standard", seed=1),
         status=EpisodeStatus.COMPLETED, end_reason="completed",
         stages_reached=("exploration", "planning", "execution"),
-        outcome=o.model_dump(mode="json"), files=files,
+        outcome=o, files=files,
         snapshots={"exploration": {"world_model.json": snapshot}} if snapshot else {},
         steps=steps, invalid_actions=invalid, protocol_errors=0,
         stage_budgets_s=granted_budgets(load_track("track1").stages())))

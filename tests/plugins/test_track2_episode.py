@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from plugins import PluginError, Scenario, load_track
-from plugins.track2 import Track2Episode, Track2Scenario
+from plugins.track2 import Track2Episode
 from simhost.track2 import (
     FAMILIES,
     ScriptedExpert,
@@ -51,7 +51,7 @@ def test_families_balance_by_index_and_scenarios_are_deterministic() -> None:
     assert [make(seed).params["family"] for seed in range(5)] == list(FAMILIES)
     a, b = make(7), make(7)
     assert a.params == b.params
-    s = Track2Scenario.model_validate(a.params)
+    s = TRACK.hidden(a)
     assert s.distance == pytest.approx(instance_distance(s.source, s.instance), abs=1e-6)
     assert s.source.family == s.instance.family == s.family and s.source != s.instance
     assert make(3, family="rotation").params["family"] == "rotation"
@@ -61,22 +61,22 @@ def test_hidden_instances_are_feasible_through_the_observation_channel() -> None
     from simhost.track2 import family_step_cap
 
     for i in range(5):
-        s = Track2Scenario.model_validate(make(300 + i, "challenge", index=i).params)
+        s = TRACK.hidden(make(300 + i, "challenge", index=i))
         assert s.expert_steps is not None and s.expert_steps <= s.attempt_steps, s.family
         assert s.expert_attempt is not None and 1 <= s.expert_attempt <= s.max_attempts
         assert 1 <= s.draws <= 8
         assert not s.bench.observation.joint_readings and not s.bench.observation.goal_vector
         # the budget: twice what the feasibility expert needed, within the family's cap
         assert s.attempt_steps == min(family_step_cap(s.family), 2 * s.expert_steps)
-        dev = Track2Scenario.model_validate(make(300 + i, "dev", index=i).params)
+        dev = TRACK.hidden(make(300 + i, "dev", index=i))
         assert dev.attempt_steps == family_step_cap(dev.family)  # dev: today's caps
 
 
 def test_official_goals_come_from_the_demonstration() -> None:
-    s = Track2Scenario.model_validate(make(11, "standard", index=1).params)  # rotation
+    s = TRACK.hidden(make(11, "standard", index=1))  # rotation
     assert s.instance.value("turn") == s.source.value("turn")
     assert s.preset == "standard" and s.bench.tolerances.rotation_rad == 0.05
-    dev = Track2Scenario.model_validate(make(11, "dev", index=1).params)
+    dev = TRACK.hidden(make(11, "dev", index=1))
     assert dev.bench.observation.goal_vector and dev.bench.tolerances.rotation_rad == 0.08
 
 
@@ -106,7 +106,7 @@ def test_write_inputs_writes_the_source_demonstration(tmp_path: Path) -> None:
     TRACK.write_inputs(s, tmp_path)
     packet = read_demo_packet(tmp_path / "demo")
     man = packet.manifest
-    hidden = Track2Scenario.model_validate(s.params)
+    hidden = TRACK.hidden(s)
     assert man.success and man.family == hidden.family and man.version == "eagc-demo/v2"
     assert "goal" not in man.observation_spec, "the official packet states no goal"
     assert hidden.instance != hidden.source
@@ -139,7 +139,7 @@ def test_nothing_moves_before_execution() -> None:
             assert "nothing moves" in out.action.reason
             ep.on_stage_end(stage, ended_by="agent", payload={})
         assert ep.state_hash() == before
-        assert ep.outcome()["refused"] == 2
+        assert ep.outcome().refused == 2
     finally:
         ep.close()
 
@@ -173,9 +173,9 @@ def test_attempts_reset_the_instance_and_report_their_outcome() -> None:
         out = ep.step("execution", {"end_attempt": 1})
         assert out.episode_over and out.end_reason == "attempts_used"
         o = ep.outcome()
-        assert [a["ended_by"] for a in o["attempts"]] == ["agent"] * 3
-        assert [a["steps"] for a in o["attempts"]] == [5, 0, 0]
-        assert not o["success"] and o["success_attempt"] is None and o["steps"] == 5
+        assert [a.ended_by for a in o.attempts] == ["agent"] * 3
+        assert [a.steps for a in o.attempts] == [5, 0, 0]
+        assert not o.success and o.success_attempt is None and o.steps == 5
     finally:
         ep.close()
 
@@ -206,9 +206,9 @@ def test_step_cap_ends_an_attempt_and_success_ends_the_episode() -> None:
         assert out.episode_over and out.end_reason == "success"
         assert out.messages[0].data["success"] is True
         o = ep.outcome()
-        assert o["success_attempt"] == 2 and o["attempts"][1]["peak_progress"] == 1.0
-        assert [a["ended_by"] for a in o["attempts"]] == ["agent", "success"]
-        assert o["drops"] == 0 and o["excess_force_steps"] == 0
+        assert o.success_attempt == 2 and o.attempts[1].peak_progress == 1.0
+        assert [a.ended_by for a in o.attempts] == ["agent", "success"]
+        assert o.drops == 0 and o.excess_force_steps == 0
         events = ep.on_stage_end("execution", ended_by="episode_over", payload={})
         assert events == ()
     finally:
@@ -221,6 +221,6 @@ def test_a_stage_budget_ends_the_attempt_under_way() -> None:
         ep.step("execution", {"motion": HOLD})
         (event,) = ep.on_stage_end("execution", ended_by="budget", payload={})
         assert event["event"] == "attempt_end" and event["ended_by"] == "stage_budget"
-        assert ep.outcome()["attempts"][0]["steps"] == 1
+        assert ep.outcome().attempts[0].steps == 1
     finally:
         ep.close()

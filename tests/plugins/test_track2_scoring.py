@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import Any
 
 import pytest
 
 from plugins import Scenario, ScoringInput, granted_budgets, load_track
-from plugins.track2 import WEIGHTS, Track2Scenario, model_parts, model_score
+from plugins.track2 import WEIGHTS, model_parts, model_score
+from plugins.track2._outcome import AttemptRecord, Track2Outcome
 from plugins.track2._scoring import MODEL_WEIGHTS, OFFICIAL_ADAPT_S, close
 from schemas import EpisodeResult, EpisodeStats, NamedItem, Precondition, ScoreCard, TaskModel
 from schemas._files import StateVariable, SuccessCriterion
@@ -27,11 +27,12 @@ def scenario() -> Scenario:
 
 
 def _far(s: Scenario, distance: float = 1.0) -> Scenario:
-    return dataclasses.replace(s, params={**s.params, "distance": distance})
+    hidden = TRACK.hidden(s).model_copy(update={"distance": distance})
+    return TRACK.new_scenario(seed=s.seed, split=s.split, hidden=hidden)
 
 
 def truth_of(s: Scenario) -> TaskTruth:
-    hidden = Track2Scenario.model_validate(s.params)
+    hidden = TRACK.hidden(s)
     return task_truth(hidden.instance, hidden.bench)
 
 
@@ -50,22 +51,23 @@ def model_from_truth(truth: TaskTruth, **changes: Any) -> TaskModel:
 
 def outcome(*, won: int | None = 1, tried: int | None = None, progress: float = 1.0,
             start: float = 0.0, steps: int = 100, adapt_s: float = 0.0,
-            **stats: Any) -> dict[str, Any]:
+            **stats: Any) -> Track2Outcome:
     n = tried if tried is not None else (won or 3)
-    attempts = [{"index": k, "steps": steps // n, "success": k == won,
-                 "start_progress": start,
-                 "peak_progress": 1.0 if k == won else progress} for k in range(1, n + 1)]
-    return {"attempts": attempts, "max_attempts": 3, "success": won is not None,
-            "success_attempt": won, "adapt_time_s": adapt_s, "steps": steps, **stats}
+    attempts = [AttemptRecord(index=k, steps=steps // n, success=k == won,
+                              start_progress=start, peak_progress=1.0 if k == won else progress)
+                for k in range(1, n + 1)]
+    return Track2Outcome(attempts=attempts, max_attempts=3, success=won is not None,
+                         success_attempt=won, adapt_time_s=adapt_s, steps=steps, **stats)
 
 
-def score(s: Scenario, o: dict[str, Any], model: TaskModel | None = None, *,
+def score(s: Scenario, o: Track2Outcome, model: TaskModel | None = None, *,
           snapshots: dict[str, Any] | None = None, invalid: int = 0,
           budgets: dict[str, float] | None = None) -> ScoreCard:
     files = {} if model is None else {"task_model.json": model}
     return TRACK.score(ScoringInput(
         scenario=s, status=EpisodeStatus.COMPLETED, end_reason="success", stages_reached=(),
-        outcome=o, files=files, snapshots=snapshots or {}, steps=int(o.get("steps", 0)),
+        outcome=o, files=files, snapshots=snapshots or {},
+        steps=o.steps if isinstance(o, Track2Outcome) else 0,
         invalid_actions=invalid, protocol_errors=0,
         stage_budgets_s=budgets or granted_budgets(TRACK.stages())))
 
@@ -267,3 +269,17 @@ def test_summarize_has_table_vii_layout() -> None:
                                 "runtime_min")
     assert {"attempts", "adapt_time_min", "runtime_min"} <= lower
     assert math.isclose(sum(TRACK.weights.values()), 1.0)
+
+
+def test_an_outcome_given_as_json_scores_as_the_model(scenario: Scenario) -> None:
+    o = outcome(won=2, adapt_s=300.0, drops=1)
+    as_json = score(scenario, o.model_dump(mode="json"))  # type: ignore[arg-type]
+    assert as_json == score(scenario, o)
+    assert as_json.components["adaptation"] > 0 and as_json.metrics["attempts"] == 2.0
+
+
+def test_an_episode_without_outcome_scores_as_one_where_nothing_happened(
+        scenario: Scenario) -> None:
+    for nothing in (None, {}):
+        card = score(scenario, nothing)  # type: ignore[arg-type]
+        assert card.total == 0.0 and card.metrics["attempts"] == 3.0

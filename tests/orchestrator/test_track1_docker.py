@@ -1,6 +1,7 @@
 """Track 1's baselines in their containers, built offline, under the full sandbox, with
 scaled budgets and step caps: the heuristic map planner for a whole episode
-(files, MCAP log, plan, picture), every other baseline for a short one."""
+(files, MCAP log, plan, picture), every other baseline (and the symbolic agent on the
+public skills) for a short one."""
 
 from __future__ import annotations
 
@@ -61,7 +62,7 @@ def test_heuristic_track1_episode_in_its_container(docker_engine: Any, images: d
     assert left == [], "the episode's container is still there"
 
 
-@pytest.mark.parametrize("name", ["sanity", "memoryfree", "lookahead", "structured"])
+@pytest.mark.parametrize("name", ["sanity", "memoryfree", "lookahead", "structured", "symbolic"])
 def test_every_other_baseline_runs_in_its_container(docker_engine: Any, images: dict,
                                                     runs_dir: Path, name: str) -> None:
     image = f"eagc/track1-{name}:latest"

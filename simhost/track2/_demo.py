@@ -157,12 +157,12 @@ def write_demo_packet(
                    image_size=image_size)
     keys = [k for k in OBS_KEYS if k in env.observation_space.spaces]
     try:
-        obs, info = env.reset(seed=seed)
+        obs, info = env.reset_typed(seed=seed)
         expert = ScriptedExpert(env)
         names = list(env.task.stages())
         observations = {k: [obs[k]] for k in keys}
         actions = []
-        stage_idx = [names.index(info["stage"]) if info["stage"] in names else -1]
+        stage_idx = [names.index(info.stage) if info.stage in names else -1]
         events: list[tuple[int, dict[str, str]]] = []
         shots: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         if frames:
@@ -173,18 +173,18 @@ def write_demo_packet(
                 action = expert()
             else:
                 action = next(tail)
-            obs, _, term, trunc, info = env.step(action)
+            obs, _, term, trunc, info = env.step_typed(action)
             k = len(actions) + 1
             actions.append(np.asarray(action, dtype=np.float32))
             if tail is None:
-                stage_idx.append(names.index(info["stage"]) if info["stage"] in names else -1)
+                stage_idx.append(names.index(info.stage) if info.stage in names else -1)
             else:  # drawing back belongs to the last key stage
                 stage_idx.append(next((s for s in reversed(stage_idx) if s >= 0), -1))
             for key in keys:
                 observations[key].append(obs[key])
-            events += [(k, e) for e in info["events"]]
+            events += [(k, e) for e in info.events]
             if tail is None and (term or trunc):
-                success, final = bool(info["success"]), info["value"]
+                success, final = bool(info.success), info.value
                 if not success or env.config.demo_values == "exact":
                     done = True  # dev: today's packet, ending on the goal
                 else:  # the demonstrator draws the hand back (then holds still); that

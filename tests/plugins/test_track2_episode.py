@@ -101,6 +101,25 @@ def test_bad_scenario_parameters_say_what_is_wrong() -> None:
     assert s.params["preset"] == "challenge" and s.split == "qualification"
 
 
+def test_split_parameters_are_one_typed_model() -> None:
+    from plugins.track2 import Track2SplitParams
+    from plugins.track2._scenario import split_params
+
+    preset, sp = split_params("qualification", {"preset": "challenge", "max_attempts": 2,
+                                                "difficulty": 1, "rgbd_only": True})
+    assert preset == "challenge" and isinstance(sp, Track2SplitParams)
+    assert (sp.max_attempts, sp.difficulty, sp.rgbd_only, sp.demo_frames) == (2, 1.0, True, True)
+    for params, says in (({"max_attempts": 4}, r"max_attempts must be an integer in \[1, 3\]"),
+                         ({"attempt_steps": True}, "attempt_steps must be an integer"),
+                         ({"demo_frames": "no"}, "demo_frames must be true or false"),
+                         ({"source_spread": float("nan")}, "source_spread must be a number")):
+        with pytest.raises(PluginError, match=says):
+            split_params("standard", params)
+    s = TRACK.hidden(TRACK.make_scenario(seed=1, split="standard", index=0, params={
+        "max_attempts": 2, "attempt_steps": 40, "demo_frames": False}))
+    assert (s.max_attempts, s.attempt_steps, s.demo_frames) == (2, 40, False)
+
+
 def test_write_inputs_writes_the_source_demonstration(tmp_path: Path) -> None:
     s = make(4)
     TRACK.write_inputs(s, tmp_path)

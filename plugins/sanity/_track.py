@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, SerializerFunctionWrapHandler, model_serializer
 
-from plugins._base import FileRule, Scenario, ScoringInput, TrackPlugin
+from plugins._base import EPISODE_LOG, FileRule, Scenario, ScoringInput, TrackPlugin
 from schemas import EndReason, FieldSpec, ScoreCard, WorldModel
 from schemas._protocol import ActionResult, HostMessage
 from simhost._episode import (
@@ -269,7 +269,7 @@ class SanityTrack(TrackPlugin[SanityScenario, SanityOutcome]):
     weights = {"task": 0.40, "model": 0.20, "recovery": 0.20, "efficiency": 0.10, "safety": 0.10}
     files = {
         "world_model.json": FileRule(WorldModel),
-        "episode_log.jsonl": FileRule(None, jsonl=True),
+        EPISODE_LOG: FileRule(None, jsonl=True),
     }
     splits = {
         "standard": (0.6, {"exception_probability": 0.5}),

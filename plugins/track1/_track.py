@@ -19,7 +19,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from plugins._base import Column, FileRule, Scenario, ScoringInput, TrackPlugin
+from plugins._base import EPISODE_LOG, Column, FileRule, Scenario, ScoringInput, TrackPlugin
 from plugins._errors import PluginError
 from plugins.track1 import _score
 from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, Track1Episode
@@ -35,7 +35,7 @@ class Track1(TrackPlugin[Track1Scenario, Track1Outcome]):
     weights = dict(_score.WEIGHTS)
     files = {
         "world_model.json": FileRule(WorldModel),
-        "episode_log.jsonl": FileRule(None, jsonl=True),
+        EPISODE_LOG: FileRule(None, jsonl=True),
     }
     splits = {
         "standard": (0.6, {"exception_probability": 0.5, "goals": [2, 2]}),

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from plugins._base import (
+    EPISODE_LOG,
     Column,
     FileRule,
     Scenario,
@@ -54,7 +55,7 @@ class Track2(TrackPlugin[Track2Scenario, Track2Outcome]):
     weights = dict(_scoring.WEIGHTS)
     files = {
         "task_model.json": FileRule(TaskModel),
-        "episode_log.jsonl": FileRule(None, jsonl=True),
+        EPISODE_LOG: FileRule(None, jsonl=True),
     }
     splits = {
         "standard": (0.5, {}),

@@ -11,8 +11,10 @@ does not keep, such as the segmentation image), and checks the agent's files:
 - **the track's checks**, when its package ships an ``audit`` module (``plugins.<track>.
   audit``, e.g. Track 1's early detections and ids never shown) with ``Shown`` (what the
   agent was shown, fed step by step: ``observe(step, data, tensors)``, ``message(step,
-  message)``, ``action(step, action, result)``), ``Snapshot(name, step, files)`` and
-  ``check_episode(shown, scenario_params=, events=, snapshots=, log=)`` returning flags
+  message)`` with a ``schemas.HostMessage``, ``action(step, action, result)`` with the
+  checked action and a ``schemas.ActionResult``), ``Snapshot(name, step, files)`` and
+  ``check_episode(shown, scenario_params=, events=, snapshots=, log=)`` (``events``: the
+  ``simhost._records`` event models, in log order) returning flags
   (``check``, ``severity``, ``message``, ``step``, ``subjects``).
 
 What the agent was shown comes from the log's replies (observation JSON, messages, action
@@ -136,9 +138,9 @@ def _read_log(path: Path, shown: Any) -> _Log:
             case ObservationReply() as reply if shown is not None:
                 shown.observe(steps, reply.observation, {})
                 for m in reply.messages:
-                    shown.message(steps, m.model_dump(mode="json"))
+                    shown.message(steps, m)
                 if action is not None and reply.action is not None:
-                    shown.action(steps, action, reply.action.model_dump(mode="json"))
+                    shown.action(steps, action, reply.action)
                 action = None
             case SmallTensors(values=tensors) if shown is not None:
                 shown.observe(steps, {}, tensors)

@@ -1,8 +1,10 @@
 """Track 1's audit checks: the agent's files against what it had been shown (public API).
 
-Pure functions over plain data, for the organizers' audit (``eagc audit``) and for any
-other caller that must say the same thing (a team's notes: early detections, ids never
-shown). Nothing here reads a file or the simulator.
+Pure functions over what the host recorded (``simhost._records``' event models, the
+protocol's ``HostMessage`` and ``ActionResult``) or the same as plain dicts, for the
+organizers' audit (``eagc audit``) and for any other caller that must say the same thing
+(a team's notes: early detections, ids never shown); each reads the fields it names through
+a small model (``_Read``). Nothing here reads a file or the simulator.
 
 What the agent was shown, step by step, goes into a ``Shown`` (``observe`` each
 observation, ``message`` each host message, ``action`` each action and its result):
@@ -210,7 +212,8 @@ class Shown:
 
     def action(self, step: int, action: Mapping[str, Any],
                result: ActionResult | Mapping[str, Any] | None) -> None:
-        """One action and its result (``{ok, reason}``), ``step`` the one it made."""
+        """One action and its result (an ``ActionResult`` or ``{ok, reason}``), ``step``
+        the one it made."""
         act = _Action.model_validate(action)
         i = _as_id(act.primitive)
         name = PRIMITIVES[i] if i is not None and 0 <= i < len(PRIMITIVES) else act.primitive

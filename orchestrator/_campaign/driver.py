@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from orchestrator._campaign.disclosure import keep_disclosures
 from orchestrator._campaign.spec import (
     EXIT_CLUSTER,
     EXIT_STORE,
@@ -166,6 +167,7 @@ class Driver:
         self._update_states()
         if todo:
             self.pinned = pin_images(self.spec)
+            keep_disclosures(self.spec, self.pinned, self.folder)
             with ray_connection(self.spec, self.options):
                 self._run(todo)
         self.report.wall_s = time.time() - started

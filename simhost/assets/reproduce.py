@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from simhost._errors import SimHostError
+
 from ._meshgen import GENERATED, obj_text
 from ._sources import SOURCES, TEXTURE_SIZE, WHEELS, Source
 
@@ -34,7 +36,7 @@ ASSET_DIR = Path(__file__).resolve().parent
 SUMS = ASSET_DIR / "SHA256SUMS"
 
 
-class ReproduceError(Exception):
+class ReproduceError(SimHostError):
     """Raised when a wheel is missing or is not the pinned one."""
 
 

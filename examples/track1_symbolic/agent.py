@@ -34,8 +34,7 @@ SHOWS = {"locked": "door_lock", "unavailable": "container_unavailable"}
 """Host failure reasons and the exception they show (Table III)."""
 STOPS = (EXPLORED, STAGE_ENDING, STAGE_OVER)
 """Outcomes of ``explore_next`` after which exploring more is pointless."""
-_USE = re.compile(r"^(?P<verb>clean|wipe|slice|cut|water) (?P<target>.+) with (?P<tool>.+)$")
-_VERBS = {"clean": "wipe", "wipe": "wipe", "slice": "cut", "cut": "cut", "water": "water"}
+_USE = re.compile(r"^(?:clean|wipe|slice|cut|water) (?P<target>.+) with (?P<tool>.+)$")
 
 
 class SymbolicAgent:
@@ -116,11 +115,10 @@ class SymbolicAgent:
         m = _USE.match(text)
         if m is None:
             return None
-        tool, target = self.find(m["tool"], use=_VERBS[m["verb"]]), self.find(m["target"])
+        tool, target = self.find(m["tool"]), self.find(m["target"])
         return missing if tool is None or target is None else sk.use(tool.id, target.id)
 
-    def find(self, phrase: str, *, receptacle: bool = False, use: str | None = None
-             ) -> Thing | None:
+    def find(self, phrase: str, *, receptacle: bool = False) -> Thing | None:
         """The thing a description names: held, else the nearest match in the model
         (exploring until one shows up); for a tool that is gone, one with the same use."""
         sk, model = self.skills, self.skills.model
@@ -135,8 +133,9 @@ class SymbolicAgent:
                     found = [t for t in model.of_kind("container")  # another, same room
                              if t.state != "unavailable"
                              and model.rooms.get(model.room_of(t)) == ref["room"]]
-            if use is not None and not found and any(t.gone for t in model.find(
-                    ref["category"], ref["colour"])):
+            use = AFFORDANCES.get(ref["category"])
+            if use is not None and not found and any(
+                    t.gone and t.category == ref["category"] for t in model.things.values()):
                 found = [t for t in model.of_kind("tool")
                          if not t.gone and AFFORDANCES.get(t.category) == use]
             if found:
@@ -178,8 +177,17 @@ class SymbolicAgent:
             self.skills.model.write(self.files)
 
     def learn(self, out: Outcome) -> None:
-        """A failure the host reported, as the exception it shows (logged once), and what
-        the model learns from it (an item not where it was seen is gone from there)."""
+        """A failure the host reported: the hand is full (put it down), or the exception it
+        shows (logged once), and what the model learns from it (an item not where it was
+        seen is gone from there)."""
+        sk = self.skills
+        if out.reason == "hand_full":  # put down what it holds, on the nearest furniture
+            spots = sorted(sk.model.of_kind("furniture"),
+                           key=lambda t: math.dist(t.position, sk.explorer.pose[:2]))
+            for spot in spots[:3]:
+                if sk.place(sk.explorer.held, spot.id).ok:
+                    break
+            return
         kind = SHOWS.get(out.reason)
         target = self.skills.model.things.get(out.target or -1)
         if out.reason == "not_visible" and target is not None and target.kind in (

@@ -179,6 +179,7 @@ class Skills:
     def _run(self, body: _Body, target: int | None, max_steps: int | None) -> Outcome:
         """Runs a skill's body (a generator of actions that returns its Outcome)."""
         start, stage = self.steps, self.ts.stage
+        self.explorer.nav.reset()  # a new skill: no path or door of the last one
         try:
             self._check(stage)
             action = next(body)
@@ -225,21 +226,24 @@ class Skills:
 
     def _go_thing(self, t: Thing) -> _Body:
         ex = self.explorer
-        radius = reach_radius(t)
-        goal = ex.in_room(near(t.position, radius), self.model.room_of(t))
-        turns = 0
-        while True:
-            act = ex.nav.go(("go_to", t.id), goal, ex.pose, ex.collided)
-            if isinstance(act, dict):
+        # Within reach from its own room first; then from anywhere; then farther off.
+        for k, (extra, own_room) in enumerate(((0.0, True), (0.0, False), (0.3, False),
+                                               (0.6, False), (1.0, False))):
+            goal = near(t.position, reach_radius(t) + extra)
+            if own_room:
+                goal = ex.in_room(goal, self.model.room_of(t))
+            act = ex.nav.go(("go_to", t.id, k), goal, ex.pose, ex.collided)
+            while isinstance(act, dict):
                 yield act
-                continue
-            if act == "unreachable":
-                return Outcome("failed", UNREACHABLE)
-            turn = face(ex.pose, t.position)
-            if turn is None or turns >= 4:
+                act = ex.nav.go(("go_to", t.id, k), goal, ex.pose, ex.collided)
+            if act == "arrived":
+                for _ in range(4):
+                    turn = face(ex.pose, t.position)
+                    if turn is None:
+                        break
+                    yield turn
                 return Outcome("done")
-            turns += 1
-            yield turn
+        return Outcome("failed", UNREACHABLE)
 
     def _go_room(self, room: int) -> _Body:
         ex = self.explorer

@@ -41,6 +41,8 @@ class SymbolicAgent:
     """Steps of the instruction, one skill call each (see the module)."""
 
     name = "eagc-track1-symbolic/1"
+    skills: Skills
+    """The public skills on this episode (made in ``run``, once the host said hello)."""
 
     def __init__(self) -> None:
         self.files = OutputFiles()

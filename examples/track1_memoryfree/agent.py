@@ -13,13 +13,14 @@ through every open doorway), opening closed doors ahead. A failed ``open`` or
 exploration it follows the walls and reports every sighting, and every doorway it passes
 from one signed room into the next, to ``world_model.json`` (a write-only report: it never
 reads it back). Between steps it keeps only what a reactive policy
-needs to act at all: which goal of the instruction it is on (``parsing.py``), the room
+needs to act at all: which goal of the instruction it is on (``simhost.skills.parse``), the room
 whose sign it read last, how long ago (after a while, or when the goal names another room,
 it leaves through a doorway in sight), the id of what it is approaching while that stays
 in view, and a step counter (after a while it accepts another tool with the same use). The
 last action's result is part of what it sees: it steps back when it stands in a door's way
-or a turn hits something. Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``),
-numpy and the standard library. ``parsing.py``, ``priors.py``, ``priors.npz`` and the
+or a turn hits something. Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), the
+instruction reader of ``simhost.skills``, numpy and the standard library. ``priors.py``,
+``priors.npz`` and the
 entry point (``entry.py``) are the Track 1 baselines' library, ``examples/track1_common``
 (this image is built ``FROM`` its image).
 """
@@ -40,10 +41,10 @@ import numpy as np  # noqa: E402
 from answers import Answers  # noqa: E402
 from doorways import Doorways  # noqa: E402
 from entry import main  # noqa: E402
-from parsing import AFFORDANCES, parse  # noqa: E402
 from priors import Priors  # noqa: E402
 
 from simhost.agent import OutputFiles, RemoteEnv, TimeStep  # noqa: E402
+from simhost.skills import AFFORDANCES, parse  # noqa: E402
 
 REACH = {"object": 1.0, "tool": 1.0, "door": 1.3}
 SIZES = {"table": 0.5, "counter": 0.55, "shelf": 0.4, "bed": 0.9, "desk": 0.45, "sofa": 0.6,

@@ -13,6 +13,7 @@ from collections.abc import Callable, Generator, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
+from simhost._errors import SimHostError
 from simhost._remote import RemoteEnv, TimeStep
 from simhost.skills._explorer import Explorer
 from simhost.skills._model import Thing, WorldModel
@@ -72,8 +73,9 @@ _Body = Generator[Action, TimeStep, Outcome]
 """A skill's body: yields actions, is sent each reply, returns the outcome."""
 
 
-class _Stop(Exception):
-    """Raised inside a skill when the stage runs down or ends (carries the reason)."""
+class _Stop(SimHostError):
+    """Raised when the stage runs down or ends inside a skill (carries the reason; caught
+    by the skill, which returns it as its outcome)."""
 
     def __init__(self, reason: str) -> None:
         super().__init__(reason)

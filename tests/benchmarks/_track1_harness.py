@@ -253,10 +253,10 @@ def run_agent(make_agent: Callable[[Track1Episode], Any], split: str, seed: int,
             stages_reached=env.stages_reached, outcome=outcome, files=parsed,
             snapshots=snaps, steps=env.steps, invalid_actions=env.invalid, protocol_errors=0)
     episode.close()
-    exc = outcome.get("exception") or {}
+    exc = outcome.exception
     return Played(split=split, seed=seed, card=card, status=status, end_reason=env.end_reason,
                   steps=env.steps, invalid_actions=env.invalid, latencies_ms=env.latencies,
-                  error=error, exception=exc.get("type"), snapshots=snaps,
+                  error=error, exception=None if exc is None else exc.type, snapshots=snaps,
                   planned=(scenario.params.get("exception") or {}).get("type"))
 
 

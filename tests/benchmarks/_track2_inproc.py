@@ -193,7 +193,7 @@ def run_inproc(folder: str, *, seed: int, split: str, index: int,
         stats=EpisodeStats(steps=steps, wall_s=time.time() - started),
         started_at=started, finished_at=time.time())
     doc = result.model_dump(mode="json")
-    doc["outcome"] = outcome
+    doc["outcome"] = outcome.model_dump(mode="json")
     if error:
         doc["error"] = error
     return doc

@@ -76,9 +76,10 @@ def test_each_library_module_has_one_copy() -> None:
     """A baseline built on the library holds none of its modules: one copy of each, and
     none that its image's ``COPY`` would write over the library's in /app."""
     library = {m.name for m in _modules(LIBRARY)}
-    assert {"planner.py", "lookahead.py", "parsing.py", "priors.py", "priors.npz"} <= library
-    # The map, the model and navigation are simhost.skills' (tests/simhost/test_skills.py).
-    assert not {"mapping.py", "model.py", "skills.py"} & library
+    assert {"planner.py", "lookahead.py", "priors.py", "priors.npz"} <= library
+    # The map, the model, navigation and the instruction reader are simhost.skills'
+    # (tests/simhost/test_skills.py).
+    assert not {"mapping.py", "model.py", "skills.py", "parsing.py"} & library
     for name in BASELINES:
         mine = {m.name for m in _modules(EXAMPLES / name)}
         assert not mine & library, f"examples/{name} has a copy of {sorted(mine & library)}"
@@ -98,8 +99,7 @@ def test_each_baseline_imports_the_library_from_a_checkout(name: str, tmp_path: 
     assert out.returncode == 0, out.stderr[-2000:]
     loaded = json.loads(out.stdout.splitlines()[-1])
     assert "entry" in loaded, loaded  # every one plays through the library's entry point
-    # ... and reads the instruction with simhost.skills' reader (the memory-free policy
-    # through the library's parsing.py, which only names it).
+    # ... and reads the instruction with simhost.skills' reader.
     assert "simhost.skills" in loaded, loaded
     skills = loaded.pop("simhost.skills")
     assert Path(skills).parent == ROOT / "simhost" / "skills", skills

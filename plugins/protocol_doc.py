@@ -440,15 +440,14 @@ def fields_table(models: Iterable[type[BaseModel]]) -> str:
 def track1_vocabulary(plugin: TrackPlugin) -> str:
     """Track 1's words and limits, from where they live: the failure reasons an action
     result carries, and the reach and motion limits of every split."""
-    from plugins.track1 import Track1Scenario
     from simhost.track1._actions import REASONS
 
     rows = ["| split | pick, use on an item (to its centre) | open, close, place, use "
             "(to a footprint) | a door (to its centre) | `move` forward = 1 | "
             "`move` turn = 1 |", "|---|---|---|---|---|---|"]
     for split in _split_names(plugin):
-        c = Track1Scenario.model_validate(plugin.make_scenario(
-            seed=0, split=split, params={}, index=0).params).split.config
+        c = plugin.hidden(plugin.make_scenario(
+            seed=0, split=split, params={}, index=0)).split.config
         rows.append(f"| `{split}` | {c.reach:g} m | {c.furniture_reach:g} m | "
                     f"{c.door_reach:g} m | {c.max_forward:g} m | "
                     f"{math.degrees(c.max_turn):g}° |")
@@ -525,15 +524,14 @@ def instruction_lines(plugin: TrackPlugin) -> list[str]:
 def track2_vocabulary(plugin: TrackPlugin) -> str:
     """Track 2's task-model names, per family, from the truths of sampled instances (what
     ``task_model.json`` is compared with), and how values are compared."""
-    from plugins.track2._scenario import Track2Scenario
     from plugins.track2._scoring import close
     from simhost.track2 import task_truth
 
     split = next(iter(plugin.splits))
     truths: dict[str, Any] = {}
     for i in range(SAMPLES):
-        s = Track2Scenario.model_validate(plugin.make_scenario(
-            seed=i, split=split, params={"demo_frames": False}, index=i).params)
+        s = plugin.hidden(plugin.make_scenario(
+            seed=i, split=split, params={"demo_frames": False}, index=i))
         truths.setdefault(s.family, task_truth(s.instance, s.bench))
     rows = ["| family | stages | variables | constraints | preconditions | success |",
             "|---|---|---|---|---|---|"]
@@ -574,13 +572,12 @@ def packet_keys(plugin: TrackPlugin, split: str) -> list[str]:
     instances of every family; T is the number of actions)."""
     import tempfile
 
-    from plugins.track2._scenario import Track2Scenario
 
     shapes: dict[str, dict[str, str]] = {}
     for i in range(SAMPLES):
         scenario = plugin.make_scenario(seed=i, split=split, params={"demo_frames": False},
                                         index=i)
-        family = Track2Scenario.model_validate(scenario.params).family
+        family = plugin.hidden(scenario).family
         with tempfile.TemporaryDirectory(prefix="eagc-doc-") as tmp:
             plugin.write_inputs(scenario, Path(tmp))
             with np.load(next(Path(tmp).rglob("trajectory.npz"))) as z:

@@ -47,7 +47,8 @@ class Scene:
     contact: str = ""
 
 
-def build_mjcf(scene: Scene, *, surface_friction: float, grip_slip: bool = False) -> str:
+def build_mjcf(scene: Scene, *, surface_friction: float, grip_slip: bool = False,
+               image_size: tuple[int, int] = (480, 640)) -> str:
     """The whole MJCF document: options, table, gripper, camera and the family's bodies.
 
     With ``grip_slip`` the fingers' contacts take the touched geom's friction (the fingers
@@ -62,7 +63,8 @@ def build_mjcf(scene: Scene, *, surface_friction: float, grip_slip: bool = False
   <option timestep="{PHYSICS_DT}" integrator="implicitfast" cone="elliptic" impratio="10">
     <flag autoreset="disable"/>
   </option>
-  <visual><quality offsamples="0" shadowsize="0"/><global offwidth="640" offheight="480"/></visual>
+  <visual><quality offsamples="0" shadowsize="0"/>
+    <global offwidth="{image_size[1]}" offheight="{image_size[0]}"/></visual>
   <default>
     <geom solref="0.01 1" solimp="0.95 0.99 0.001"/>
     <default class="fixture"><geom friction="{surface_friction:.4f} 0.005 0.0001"

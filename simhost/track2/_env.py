@@ -66,6 +66,7 @@ from ._bench import (
     WORKSPACE_LO,
     build_mjcf,
 )
+from ._camera import OverviewCamera
 from ._config import BenchConfig, split_config
 from ._errors import InstanceParamsError, StateError
 from ._families import make_task
@@ -149,7 +150,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.config = config
         self.render_mode = render_mode
         self._max_steps_arg = max_steps
-        self._renderer: mujoco.Renderer | None = None
+        self._camera: OverviewCamera | None = None
         self.episode = 0
         self._load(params)
 
@@ -166,7 +167,8 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.params = params
         self.task = make_task(params, self.config)
         self.xml = build_mjcf(self.task.scene(), surface_friction=params.f("surface"),
-                              grip_slip=self.config.grip_slip)
+                              grip_slip=self.config.grip_slip,
+                              image_size=self.config.observation.image_size)
         self.model = mujoco.MjModel.from_xml_string(self.xml)
         self.data = mujoco.MjData(self.model)
         self.sim = Sim(self.model, self.data)
@@ -174,9 +176,9 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.channel = PartsChannel(self.task, self.config.observation)
         self.max_steps = self._max_steps_arg or self.task.max_steps
         self._instance = instance_id(params, self.config)
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        if self._camera is not None:
+            self._camera.close()
+            self._camera = None
         m = self.model
         self._groups = [tuple(int(m.body(n).id) for n in g) for g in self.task.jitter_groups()]
         self._nominal = {b: (m.body_pos[b].copy(), m.body_quat[b].copy())
@@ -350,9 +352,9 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return self._render()[0]
 
     def close(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        if self._camera is not None:
+            self._camera.close()
+            self._camera = None
 
     # -- state ---------------------------------------------------------------------------------
     def get_state(self) -> bytes:
@@ -505,33 +507,18 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     def _render(self, depth: bool = False, segmentation: bool = False
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if self._renderer is None:
+        if self._camera is None:
             h, w = self.image_size
-            self._renderer = mujoco.Renderer(self.model, h, w)
-            flags = self._renderer.scene.flags
-            flags[mujoco.mjtRndFlag.mjRND_SHADOW] = 0
-            flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
-        r = self._renderer
-        r.update_scene(self.data, camera="overview")
-        rgb = r.render().copy()
-        dep = np.zeros(0, dtype=np.float32)
+            self._camera = OverviewCamera(self.model, h, w)
+        cam = self._camera
+        rgb, dep = cam.rgbd(self.data, depth=depth)
         seg = np.zeros(0, dtype=np.int32)
-        if depth:
-            r.enable_depth_rendering()
-            r.update_scene(self.data, camera="overview")
-            dep = r.render().copy()
-            r.disable_depth_rendering()
         if segmentation:
-            r.enable_segmentation_rendering()
-            r.update_scene(self.data, camera="overview")
-            raw = r.render()
-            r.disable_segmentation_rendering()
-            ids, types = raw[..., 0], raw[..., 1]
+            ids = cam.segmentation(self.data)
             lut = np.zeros(self.model.ngeom + 1, dtype=np.int32)
             for g, row in self._seg_rows.items():
                 lut[g] = row
-            geom = types == int(mujoco.mjtObj.mjOBJ_GEOM)
-            seg = np.where(geom & (ids >= 0), lut[np.clip(ids, 0, self.model.ngeom)], 0)
+            seg = np.where(ids >= 0, lut[np.clip(ids, 0, self.model.ngeom)], 0)
             seg = seg.astype(np.int32)
         return rgb, dep, seg
 

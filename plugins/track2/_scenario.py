@@ -81,6 +81,9 @@ class Track2SplitParams(BaseModel):
     """Images in the demonstration packet."""
     rgbd_only: bool | None = None
     """An observation of images without the parts rows."""
+    image_size: tuple[int, int] | None = None
+    """``[height, width]`` of the RGB-D images, each in [16, 1024] (None: the preset's,
+    ``simhost.track2.OFFICIAL_IMAGE_SIZE`` on the official splits)."""
 
     @field_validator("family", mode="before")
     @classmethod
@@ -106,6 +109,16 @@ class Track2SplitParams(BaseModel):
         if v is not None and not (isinstance(v, int) and not isinstance(v, bool)
                                   and 1 <= v <= hi):
             raise ValueError(f"{info.field_name} must be an integer in [1, {hi}], got {v!r}")
+        return v
+
+    @field_validator("image_size", mode="before")
+    @classmethod
+    def _size(cls, v: Any) -> Any:
+        ok = (v is None or (isinstance(v, list | tuple) and len(v) == 2 and all(
+            isinstance(x, int) and not isinstance(x, bool) and 16 <= x <= 1024 for x in v)))
+        if not ok:
+            raise ValueError(f"image_size must be [height, width], integers in [16, 1024], "
+                             f"got {v!r}")
         return v
 
     @field_validator("demo_frames", "rgbd_only", mode="before")
@@ -234,6 +247,9 @@ def make_track2_scenario(seed: int, split: str, params: Mapping[str, Any],
     if update:
         variation = variation.model_copy(update=update)
     bench = preset.bench
+    if sp.image_size is not None:
+        bench = bench.model_copy(update={"observation": bench.observation.model_copy(
+            update={"image_size": tuple(sp.image_size)})})
     if sp.rgbd_only:
         bench = bench.model_copy(update={"observation": bench.observation.model_copy(
             update={"parts": False, "rgbd": True, "segmentation": True})})

@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 from ._bench import PART_FIELDS
 from ._config import (
+    OFFICIAL_IMAGE_SIZE,
     SPLITS,
     BenchConfig,
     ObservationConfig,
@@ -90,6 +91,7 @@ __all__ = [
     "FAMILIES",
     "PARAM_TABLES",
     "PART_FIELDS",
+    "OFFICIAL_IMAGE_SIZE",
     "SPLITS",
     "BenchConfig",
     "BenchEnv",

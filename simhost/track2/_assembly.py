@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._bench import WIDTH_MAX, Scene, quat_z, wrap
+from ._bench import METAL, WIDTH_MAX, Scene, dress, quat_z, wrap
 from ._family import (
     Evaluation,
     FamilyTask,
@@ -78,7 +78,8 @@ class AssemblyTask(FamilyTask):
     def scene(self) -> Scene:
         fr = f'friction="{self.p.f("part"):.4f} 0.005 0.0001"'
         inner = self.half[0] + self.clear / 2
-        walls = "".join(box_walls(inner, inner, WALL_T, WALL_H, chamfer=TRAY_CHAMFER))
+        walls = dress(box_walls(inner, inner, WALL_T, WALL_H, chamfer=TRAY_CHAMFER), "steel",
+                      METAL)
         colours = ("0.2 0.6 0.3 1", "0.9 0.75 0.2 1", "0.3 0.4 0.85 1")
         bodies = [
             f'<body name="tray" pos="{self.p.f("tray_x"):.5f} {self.p.f("tray_y"):.5f} 0" '
@@ -88,9 +89,10 @@ class AssemblyTask(FamilyTask):
             bodies.append(
                 f'<body name="{name}" pos="{st[0]:.5f} {st[1]:.5f} {self.H / 2 + 0.0005:.5f}" '
                 f'quat="{quat_z(st[2])}"><freejoint name="{name}"/>'
-                f'<geom type="box" size="{h:.5f} {h:.5f} {self.H / 2:.5f}" '
-                f'density="{self.p.f("density"):.2f}" {fr} '
-                f'rgba="{colours[i]}"/></body>'
+                + dress(f'<geom type="box" size="{h:.5f} {h:.5f} {self.H / 2:.5f}" '
+                        f'density="{self.p.f("density"):.2f}" {fr} '
+                        f'rgba="{colours[i]}"/>', "wood_light", None)
+                + '</body>'
             )
         return Scene(bodies="\n    ".join(bodies))
 

@@ -11,7 +11,8 @@ Three presets (``SPLITS``):
 - ``standard`` and ``challenge`` — the official splits: part poses measured by a camera-like
   channel (noise in mm and degrees, a lower rate, latency, hidden while the gripper occludes
   them, yaw only modulo the part's symmetry), no joint readings and no goal vector (the goal
-  is the demonstration's: the same turn, the same fraction), RGB-D at a small size, wide
+  is the demonstration's: the same turn, the same fraction), RGB-D at
+  ``OFFICIAL_IMAGE_SIZE``, wide
   parameter ranges with new shapes, a switched mechanism or turning direction now and then,
   grasps that can slip, tight tolerances, and a small pose jitter per attempt. ``challenge``
   is noisier, slower and farther from the source than ``standard``.
@@ -86,7 +87,8 @@ class ObservationConfig(_Frozen):
                               "goal parameters.")
     rgbd: bool = Field(False, description="Render 'rgb' and 'depth' from the overview camera.")
     segmentation: bool = Field(False, description="Also render 'segmentation' (part ids).")
-    image_size: tuple[int, int] = Field((96, 128), description="(height, width) of images.")
+    image_size: tuple[int, int] = Field((96, 128), description="(height, width) of images "
+                                        "(the official splits: OFFICIAL_IMAGE_SIZE).")
 
 
 class Tolerances(_Frozen):
@@ -150,10 +152,13 @@ class SplitConfig(_Frozen):
         "family's cap.")
 
 
+OFFICIAL_IMAGE_SIZE = (192, 256)
+"""(height, width) of the official splits' RGB-D: 256 x 192, a size vision models take."""
 _ROBOT = ObservationConfig(
     pose_noise_m=0.001, yaw_noise_rad=0.015, pose_bias_m=0.001, yaw_bias_rad=0.01,
     calib_m=0.003, calib_rad=0.005, period_steps=2, latency_steps=1, occlusion=True,
     symmetric_yaw=True, joint_readings=False, goal_vector=False, rgbd=True,
+    image_size=OFFICIAL_IMAGE_SIZE,
 )
 BUDGET_FACTOR = 2.0
 """Official splits: an attempt may take twice the steps a system that knows the instance's

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._bench import WIDTH_MAX, Scene, quat_z, rot2, wrap
+from ._bench import WIDTH_MAX, Scene, dress, hide, look, quat_z, rot2, wrap
 from ._family import (
     Evaluation,
     FamilyTask,
@@ -89,6 +89,12 @@ class InsertionTask(FamilyTask):
                               chamfer=CHAMFER)
         peg += (f' density="{p.f("density"):.2f}" friction="{fr:.4f} 0.005 0.0001" '
                 f'rgba="0.85 0.45 0.2 1"/>')
+        # what the camera sees: the asset library's peg (brass), scaled to this peg
+        unit = {"round": "peg_round", "hex": "peg_hex"}.get(self.shape, "peg_square")
+        wide = self.a if self.shape in ("round", "hex") else self.b
+        assets += (f'<mesh name="peg_look" file="{unit}.obj" '
+                   f'scale="{2 * self.a:.5f} {2 * wide:.5f} {self.h:.5f}"/>')
+        peg = hide(peg) + look("peg_look", "brass")
         return Scene(
             assets=assets,
             bodies=f"""
@@ -99,7 +105,7 @@ class InsertionTask(FamilyTask):
     </body>
     <body name="hole" pos="{p.f('hole_x'):.5f} {p.f('hole_y'):.5f} 0"
       quat="{quat_z(p.f('hole_yaw'))}">
-      {''.join(walls)}
+      {dress(walls, "wood_dark")}
     </body>"""
         )
 

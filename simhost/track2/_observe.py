@@ -12,7 +12,8 @@
   the true joint value only with ``joint_readings``;
 - a row whose part the gripper hides from the camera at that time (``occlusion``: every
   line of sight from the ``overview`` camera to the part's sample points — the centre, top
-  and bottom of each of its geoms, or the site a row shows — meets a gripper geom first)
+  and bottom of each of its collision geoms, or the site a row shows — meets a gripper geom
+  first; the rays see every geom group but ``VISUAL_GROUP``, the visual-only geoms)
   keeps its previous measurement;
 - the ``age`` column says how old the state shown is, in seconds (latency included).
 
@@ -29,7 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._bench import CONTROL_HZ, PART_FIELDS, wrap, yaw_of
+from ._bench import CONTROL_HZ, PART_FIELDS, RAY_GROUPS, VISUAL_GROUP, wrap, yaw_of
 from ._config import ObservationConfig
 
 if TYPE_CHECKING:
@@ -89,7 +90,8 @@ class PartsChannel:
             elif ref[0] == "site":
                 self._samples.append(("site", [ref[1]]))
             else:
-                geoms = [int(g) for g in np.nonzero(m.geom_bodyid == ref[1])[0]][:8]
+                mine = (m.geom_bodyid == ref[1]) & (m.geom_group != VISUAL_GROUP)
+                geoms = [int(g) for g in np.nonzero(mine)[0]][:8]
                 self._samples.append(("geom", geoms))
         self._history: deque[tuple[np.ndarray, np.ndarray | None]] = deque(
             maxlen=config.latency_steps + 1)
@@ -186,7 +188,7 @@ class PartsChannel:
             blocked = True
             for point in points:
                 vec = point + (0.0, 0.0, 0.002) - cam
-                dist = mujoco.mj_ray(m, d, cam, vec, None, 1, -1, self._geomid)
+                dist = mujoco.mj_ray(m, d, cam, vec, RAY_GROUPS, 1, -1, self._geomid)
                 geom = int(self._geomid[0])
                 hit_hand = geom >= 0 and 0 <= dist < 1.0 and int(m.geom_bodyid[geom]) in self._hand
                 if not hit_hand:

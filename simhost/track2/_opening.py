@@ -24,11 +24,12 @@ cover, lid). Goal vector (dev): ``[1, goal fraction, tolerance, +1 open / -1 clo
 from __future__ import annotations
 
 import math
+import re
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._bench import WIDTH_MAX, Scene, quat_z, rot2, wrap, yaw_of
+from ._bench import DARK, WIDTH_MAX, Scene, dress, quat_z, rot2, wrap, yaw_of
 from ._family import (
     Evaluation,
     FamilyTask,
@@ -108,7 +109,7 @@ class OpeningTask(FamilyTask):
                 )
             )
             housing = '<geom class="fixture" type="box" pos="0.06 0 0.045" size="0.06 0.07 0.045"/>'
-            child = f'<body name="mover" pos="0 0 0">{inner}</body>'
+            child = f'<body name="mover" pos="0 0 0">{_looks(inner)}</body>'
         else:
             housing = '<geom class="fixture" type="box" pos="0 0 0.025" size="0.06 0.06 0.025"/>'
             sy = self.sy
@@ -118,7 +119,7 @@ class OpeningTask(FamilyTask):
                     + plate.format(x=0, y=0)
                     + knob.format(x=0, y=-0.03 * sy)
                 )
-                child = f'<body name="mover" pos="0 0 0.05">{inner}</body>'
+                child = f'<body name="mover" pos="0 0 0.05">{_looks(inner)}</body>'
             else:
                 px, py = LID_PIVOT[0], LID_PIVOT[1] * sy
                 inner = (
@@ -126,7 +127,8 @@ class OpeningTask(FamilyTask):
                     + plate.format(x=-px, y=-py)
                     + knob.format(x=LID_KNOB[0], y=LID_KNOB[1] * sy)
                 )
-                child = f'<body name="mover" pos="{px} {py} 0.05">{inner}</body>'
+                child = f'<body name="mover" pos="{px} {py} 0.05">{_looks(inner)}</body>'
+        housing = dress(housing, "wood_dark")
         return Scene(
             bodies=f"""
     <body name="housing" pos="{p.f('x'):.5f} {p.f('y'):.5f} 0"
@@ -297,3 +299,14 @@ class OpeningTask(FamilyTask):
             if abs(q_goal - self.q_seen(e)) < self.tolerance * self.range / 2:
                 break
         yield from idle(env, open_w)
+
+
+
+def _looks(inner: str) -> str:
+    """The mover's geoms dressed: panels in light wood, grips (knobs, bars) in dark steel."""
+    out = []
+    for g in re.split(r"(?=<geom |<joint )", inner):
+        if g.startswith("<geom "):
+            g = dress(g, "steel", DARK) if 'rgba="0.2 0.2 0.2 1"' in g else dress(g, "wood_light")
+        out.append(g)
+    return "".join(out)

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._bench import WIDTH_MAX, Scene, quat_z, wrap, yaw_of
+from ._bench import DARK, METAL, WIDTH_MAX, Scene, dress, hide, look, quat_z, wrap, yaw_of
 from ._family import (
     Evaluation,
     FamilyTask,
@@ -82,13 +82,19 @@ class RotationTask(FamilyTask):
                 for i in range(6)
                 for zz in (-hz, hz)
             )
-            assets = f'<mesh name="nut" vertex="{verts}"/>'
-            handle = f'<geom type="mesh" mesh="nut" density="2000" {fr} rgba="0.7 0.7 0.75 1"/>'
+            top = self.z + hz + 0.008
+            assets = (f'<mesh name="nut" vertex="{verts}"/>'
+                      f'<mesh name="nut_look" file="hex_nut.obj" '
+                      f'scale="{2 * hx:.5f} {2 * hx:.5f} {2 * hz / 0.9:.5f}"/>'
+                      f'<mesh name="bolt_look" file="bolt.obj" scale="0.012 0.012 {top:.5f}"/>')
+            handle = hide(f'<geom type="mesh" mesh="nut" density="2000" {fr} '
+                          f'rgba="0.7 0.7 0.75 1"/>') + look("nut_look", "steel", rgba=METAL)
             post = (
-                f'<geom class="fixture" type="cylinder" pos="0 0 {(self.z + hz + 0.008) / 2:.5f}" '
-                f'size="0.006 {(self.z + hz + 0.008) / 2:.5f}"/>'
-                f'<geom class="fixture" type="cylinder" pos="0 0 {bottom / 2:.5f}" '
-                f'size="{hx + 0.004:.5f} {bottom / 2:.5f}"/>'
+                hide(f'<geom class="fixture" type="cylinder" pos="0 0 {top / 2:.5f}" '
+                     f'size="0.006 {top / 2:.5f}"/>')
+                + look("bolt_look", "steel", rgba=METAL)
+                + dress(f'<geom class="fixture" type="cylinder" pos="0 0 {bottom / 2:.5f}" '
+                        f'size="{hx + 0.004:.5f} {bottom / 2:.5f}"/>', "wood_dark")
             )
         else:
             assets = ""
@@ -101,10 +107,15 @@ class RotationTask(FamilyTask):
                     f'<geom type="cylinder" size="0.016 {hz * 0.6:.5f}" density="800" {fr} '
                     f'rgba="0.6 0.15 0.15 1"/>'
                 )
-            post = (
+                handle = dress(handle, "steel", None)
+            else:  # a stove knob: a dark dial under its grip bar
+                assets = (f'<mesh name="knob_look" file="gk_knob.stl" '
+                          f'scale="{hx / 0.04875:.5f} {hx / 0.04875:.5f} {0.012 / 0.0539:.5f}"/>')
+                handle = dress(handle, "steel", DARK) + look(
+                    "knob_look", "steel", pos=f"0 0 {-hz - 0.012:.5f}", rgba=DARK)
+            post = dress(
                 f'<geom class="fixture" type="cylinder" pos="0 0 {bottom / 2:.5f}" '
-                f'size="0.009 {bottom / 2:.5f}"/>'
-            )
+                f'size="0.009 {bottom / 2:.5f}"/>', "steel", METAL)
         # A pointer painted on top (no collision): the handle's pose shows its angle over a
         # full turn, although its shape repeats every pi (bars) or pi/3 (the nut).
         handle += (

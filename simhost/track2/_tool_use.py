@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._bench import WIDTH_MAX, Scene, quat_z, wrap
+from ._bench import WIDTH_MAX, Scene, dress, quat_z, wrap
 from ._family import (
     Evaluation,
     FamilyTask,
@@ -111,13 +111,14 @@ class ToolUseTask(FamilyTask):
             return (
                 f'<body name="{name}" pos="{x:.5f} {y:.5f} {length + hz + 0.0005:.5f}" '
                 f'quat="{quat_z(p.f("tool_yaw"))}"><freejoint name="{name}"/>'
-                f'<geom type="box" size="{hx} {hy} {hz}" density="{rho * 0.5:.1f}" {fr} {colour}/>'
-                f'<geom {shaft} pos="0 0 {-hz - length / 2:.5f}" density="{rho:.1f}" {fr} '
-                f'{colour}/>'
+                f'<geom material="wood_light" type="box" size="{hx} {hy} {hz}" '
+                f'density="{rho * 0.5:.1f}" {fr} {colour}/>'
+                f'<geom material="steel" {shaft} pos="0 0 {-hz - length / 2:.5f}" '
+                f'density="{rho:.1f}" {fr} {colour}/>'
                 f'<site name="{name}_tip" pos="0 0 {-hz - length:.5f}" size="0.003"/></body>'
                 f'<body name="rack_{slot}" pos="{x:.5f} {y:.5f} 0" '
                 f'quat="{quat_z(p.f("tool_yaw"))}">'
-                + "".join(box_walls(RACK_IN, RACK_IN, 0.008, RACK_H))
+                + dress(box_walls(RACK_IN, RACK_IN, 0.008, RACK_H), "wood_dark")
                 + "</body>"
             )
         yaw = (math.pi / 2 if slot == 0 else -math.pi / 2) + p.f("tool_yaw")
@@ -129,11 +130,13 @@ class ToolUseTask(FamilyTask):
         return (
             f'<body name="{name}" pos="{x:.5f} {y:.5f} {HOE_HANDLE_H + 0.0005:.5f}" '
             f'quat="{quat_z(yaw)}"><freejoint name="{name}"/>'
-            f'<geom type="box" size="0.01 0.01 {HOE_HANDLE_H}" density="400" {fr} {colour}/>'
-            f'<geom {shaft} pos="{length / 2:.5f} 0 {SHAFT_Z - HOE_HANDLE_H:.5f}" '
-            f'density="300" {fr} {colour}/>'
-            f'<geom type="box" size="0.006 0.04 {SHAFT_Z / 2 + 0.002:.5f}" pos="{length:.5f} 0 '
-            f'{SHAFT_Z / 2 + 0.002 - HOE_HANDLE_H:.5f}" density="300" {fr} {colour}/>'
+            f'<geom material="wood_light" type="box" size="0.01 0.01 {HOE_HANDLE_H}" '
+            f'density="400" {fr} {colour}/>'
+            f'<geom material="steel" {shaft} '
+            f'pos="{length / 2:.5f} 0 {SHAFT_Z - HOE_HANDLE_H:.5f}" density="300" {fr} {colour}/>'
+            f'<geom material="steel" type="box" size="0.006 0.04 {SHAFT_Z / 2 + 0.002:.5f}" '
+            f'pos="{length:.5f} 0 {SHAFT_Z / 2 + 0.002 - HOE_HANDLE_H:.5f}" density="300" {fr} '
+            f'{colour}/>'
             f'<site name="{name}_tip" pos="{length:.5f} 0 {-HOE_HANDLE_H:.5f}" size="0.003"/>'
             f"</body>"
         )
@@ -143,10 +146,11 @@ class ToolUseTask(FamilyTask):
         tools = "".join(self._tool(i, n) for i, n in enumerate(self.lengths) if n is not None)
         tx, ty = self.target_xy0
         if self.press:
-            walls = "".join(box_walls(WELL_IN, WELL_IN, 0.015, self.depth))
+            walls = dress(box_walls(WELL_IN, WELL_IN, 0.015, self.depth), "wood_dark")
             target = f"""
     <body name="fixture" pos="{tx:.5f} {ty:.5f} 0">{walls}
-      <geom class="fixture" type="box" pos="0 0 0.003" size="{WELL_IN} {WELL_IN} 0.003"/>
+      <geom class="fixture" material="wood_dark" rgba="1 1 1 1" type="box" pos="0 0 0.003"
+        size="{WELL_IN} {WELL_IN} 0.003"/>
     </body>
     <body name="target" pos="{tx:.5f} {ty:.5f} {BUTTON_TOP - 0.005:.5f}">
       <joint name="button" type="slide" axis="0 0 1" range="-0.012 0" stiffness="400"
@@ -157,8 +161,9 @@ class ToolUseTask(FamilyTask):
         else:
             target = f"""
     <body name="target" pos="{tx:.5f} {ty:.5f} 0.0105"><freejoint name="puck"/>
-      <geom type="cylinder" size="{self.r:.5f} 0.01" density="{p.f('density'):.1f}"
-        friction="{p.f('part'):.4f} 0.005 0.0001" rgba="0.9 0.5 0.1 1"/>
+      <geom material="wood_light" type="cylinder" size="{self.r:.5f} 0.01"
+        density="{p.f('density'):.1f}" friction="{p.f('part'):.4f} 0.005 0.0001"
+        rgba="0.9 0.5 0.1 1"/>
     </body>
     <body name="fixture" pos="{self.goal_x0:.5f} 0 0.0005">
       <geom type="box" size="0.003 0.2 0.0005" contype="0" conaffinity="0"

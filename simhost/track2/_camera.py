@@ -108,4 +108,7 @@ class OverviewCamera:
             self._gl = None  # type: ignore[assignment]
 
     def __del__(self) -> None:
-        self.close()
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001  at interpreter exit EGL may already be gone
+            self._gl = None  # type: ignore[assignment]

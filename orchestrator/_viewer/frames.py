@@ -1,9 +1,11 @@
 """Camera frames for the page: PNGs from the MCAP log, made into small thumbnails.
 
 The recorder writes PNGs without filters (``simhost._png``) and depth as raw float32; a
-page carries thumbnails at most ``THUMB_WIDTH`` pixels wide, PNG with the "up" filter
-(rendered scenes compress well with it), as ``data:`` URIs, within a byte budget: frames
-are thinned evenly until they fit.
+page carries thumbnails at most ``THUMB_WIDTH`` pixels wide (a wider frame is scaled down
+to exactly that width, whatever the camera's resolution: 96x72 stays as it is, 256x192
+shows at 192x144, 640x480 too), PNG with the "up" filter, as ``data:`` URIs, within a byte
+budget: frames are thinned evenly until they fit, so a page stays under 2 MB at any
+resolution (a textured scene's frames cost more bytes each, so fewer of them are kept).
 """
 
 from __future__ import annotations
@@ -94,16 +96,35 @@ def depth_picture(metres: np.ndarray) -> np.ndarray:
 
 
 def thumbnail(img: np.ndarray, *, smooth: bool = True) -> np.ndarray:
-    """``img`` shrunk by a whole factor to at most ``THUMB_WIDTH`` wide (a block mean, or
-    every k-th pixel where colours are labels, as in segmentation)."""
-    k = -(-img.shape[1] // THUMB_WIDTH)
-    if k <= 1:
+    """``img`` scaled down to ``THUMB_WIDTH`` wide when it is wider, keeping its aspect: each
+    pixel the mean of the area it covers (an area filter), or the pixel nearest its centre
+    where colours are labels, as in segmentation."""
+    h, w = img.shape[:2]
+    if w <= THUMB_WIDTH:
         return img
+    out_h = max(1, round(h * THUMB_WIDTH / w))
     if not smooth:
-        return img[::k, ::k]
-    h, w = img.shape[0] // k * k, img.shape[1] // k * k
-    blocks = img[:h, :w].reshape(h // k, k, w // k, k, -1).astype(np.float32)
-    return blocks.mean(axis=(1, 3)).round().astype(np.uint8)
+        return img[_nearest(h, out_h)][:, _nearest(w, THUMB_WIDTH)]
+    rows = _area_weights(h, out_h)
+    cols = _area_weights(w, THUMB_WIDTH)
+    c = img.shape[2] if img.ndim == 3 else 1
+    tall = rows @ img.reshape(h, w * c).astype(np.float32)  # (out_h, w * c)
+    out = np.matmul(cols, tall.reshape(out_h, w, c))  # (out_h, THUMB_WIDTH, c)
+    out = out.reshape(out_h, THUMB_WIDTH, *img.shape[2:])
+    return np.clip(out.round(), 0, 255).astype(np.uint8)
+
+
+def _nearest(n_in: int, n_out: int) -> np.ndarray:
+    return np.minimum(((np.arange(n_out) + 0.5) * n_in / n_out).astype(int), n_in - 1)
+
+
+def _area_weights(n_in: int, n_out: int) -> np.ndarray:
+    """(n_out, n_in) weights: output pixel j averages input [j, j+1) * n_in / n_out."""
+    scale = n_in / n_out
+    lo = np.arange(n_out)[:, None] * scale
+    i = np.arange(n_in)[None, :]
+    overlap = np.clip(np.minimum(lo + scale, i + 1) - np.maximum(lo, i), 0.0, None)
+    return (overlap / scale).astype(np.float32)
 
 
 def data_uri(png: bytes) -> str:

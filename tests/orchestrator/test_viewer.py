@@ -184,6 +184,54 @@ def test_thumbnails_round_trip() -> None:
     assert (decode_png(encode_png(img)) == img).all()
 
 
+def test_thumbnails_are_scaled_to_the_page_width_whatever_the_camera() -> None:
+    import numpy as np
+
+    from orchestrator._viewer.frames import THUMB_WIDTH, thumbnail
+
+    small = np.full((72, 96, 3), 40, np.uint8)
+    assert thumbnail(small) is small  # today's size stays as it was logged
+    for w, h in ((256, 192), (224, 224), (640, 480)):
+        flat = np.full((h, w, 3), 77, np.uint8)
+        got = thumbnail(flat)
+        assert got.shape == (round(h * THUMB_WIDTH / w), THUMB_WIDTH, 3) and (got == 77).all()
+    stripes = np.zeros((192, 256, 3), np.uint8)
+    stripes[:, 1::2] = 200  # an area filter averages what nearest sampling would alias
+    assert abs(float(thumbnail(stripes).mean()) - 100.0) < 1.0
+    labels = np.random.default_rng(0).choice([0, 90, 180], (192, 256, 3)).astype(np.uint8)
+    assert set(np.unique(thumbnail(labels, smooth=False))) <= {0, 90, 180}
+
+
+def test_a_long_episode_at_the_official_size_stays_within_the_page_budget() -> None:
+    import numpy as np
+
+    from orchestrator._viewer.frames import (
+        FRAME_BUDGET,
+        THUMB_WIDTH,
+        Frame,
+        decode_png,
+        depth_picture,
+        page_frames,
+    )
+
+    rng = np.random.default_rng(1)
+    h, w = 192, 256
+    frames = [Frame(step=k, rgb=rng.integers(0, 256, (h, w, 3), dtype=np.uint8),
+                    depth=depth_picture(rng.uniform(0.3, 6.0, (h, w))),
+                    segmentation=rng.integers(0, 256, (h, w, 3), dtype=np.uint8))
+              for k in range(200)]  # textures as busy as noise: the worst case for PNG
+    kept = page_frames(frames)
+    assert kept[0]["step"] == 0 and kept[-1]["step"] == 199 and len(kept) > 2
+    encoded = sum(len(str(f[k])) for f in kept for k in ("rgb", "depth", "segmentation"))
+    assert encoded * 3 / 4 <= FRAME_BUDGET * 1.01 and encoded < 1.6 * 2**20
+    import base64
+
+    for f in (kept[0], kept[-1]):
+        for key in ("rgb", "depth", "segmentation"):
+            png = base64.b64decode(str(f[key]).split(",", 1)[1])
+            assert decode_png(png).shape == (144, THUMB_WIDTH, 3)
+
+
 def test_frames_are_thinned_to_the_budget_keeping_both_ends() -> None:
     import numpy as np
 
@@ -325,7 +373,7 @@ def test_a_track1_episode_page(track1_episode: Path, browser: Browser, shots: Pa
                            " document.querySelectorAll('#events tr[data-step]').length,"
                            " document.querySelectorAll('details.snapshot').length,"
                            " document.getElementById('frame-rgb').naturalWidth]")
-    assert got[0] == 1 and got[1] > 5 and got[2] >= 3 and 0 < got[3] <= 192
+    assert got[0] == 1 and got[1] > 5 and got[2] >= 3 and got[3] == 192  # 640 scaled to 192
     first = browser.evaluate("document.getElementById('path').dataset.points")
     browser.open(page.as_uri() + "?step=3")
     assert int(browser.evaluate("document.getElementById('path').dataset.points")) < int(first)

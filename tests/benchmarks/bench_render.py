@@ -92,6 +92,24 @@ def _gl_renderer() -> str:
     return "?"
 
 
+def _gl_of(owner: Any) -> Any:
+    """Our renderer (whatever holds the ``MjvScene``: a ``mujoco.Renderer`` or a track's own
+    camera), for its scene flags; None before the first render or when it has no scene."""
+    for name in ("_camera", "_renderer"):
+        gl = getattr(owner, name, None)
+        if gl is not None and hasattr(gl, "scene"):
+            return gl
+    return None
+
+
+def _option_of(owner: Any) -> Any:
+    """Our ``MjvOption`` (geom groups shown), where the track keeps one."""
+    opt = getattr(owner, "_scene_option", None)
+    if opt is None:
+        opt = getattr(_gl_of(owner), "option", None)
+    return opt
+
+
 class _Track1:
     """A Track 1 house of a split: envs, camera, observation render, policy."""
 
@@ -126,12 +144,12 @@ class _Track1:
         self.sim.render_rgbd(*self.size)
 
     def ours_renderer(self) -> Any:
-        return getattr(self.sim, "_renderer", None)
+        return _gl_of(self.sim)
 
     def scene_option(self) -> Any:
         import mujoco
 
-        opt = getattr(self.sim, "_scene_option", None)
+        opt = _option_of(self.sim)
         if opt is None:
             opt = mujoco.MjvOption()
             opt.geomgroup[:] = 1
@@ -192,12 +210,12 @@ class _Track2:
         render()
 
     def ours_renderer(self) -> Any:
-        return getattr(self.env, "_renderer", None)
+        return _gl_of(self.env)
 
     def scene_option(self) -> Any:
         import mujoco
 
-        return getattr(self.env, "_scene_option", None) or mujoco.MjvOption()
+        return _option_of(self.env) or mujoco.MjvOption()
 
     def record(self, count: int) -> list[list[Any]]:
         """The privileged expert's episode, repeated until ``count`` steps."""

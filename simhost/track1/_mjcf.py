@@ -5,9 +5,11 @@ camera ``eye``); door ``door_<id>`` (hinge joint and actuator ``door_<id>``, equ
 ``lock_<id>``, indicator geoms ``doorlamp_<id>_<k>``); furniture and container carcasses
 ``furn_<id>``; container lids ``lid_<id>`` and items ``item_<id>`` are mocap bodies.
 
-Geom groups: 0 walls and furniture, 1 doors, 2 lids, 3 items, 4 floor, 5 robot. Collisions:
-only the robot collides, with walls, furniture and doors (contype/conaffinity 1/2 vs 2/0).
-Items and lids are kinematic (mocap) and never collide.
+Geom groups: 0 walls and furniture, 1 doors, 2 lids, 3 items, 4 what the camera draws
+(textured floors and the visual twins of ``_dress.py``), 5 robot. Groups 0-3 hold the
+primitives that decide collisions and rays; the camera draws group 4 only. Collisions: only
+the robot collides, with walls, furniture and doors (contype/conaffinity 1/2 vs 2/0). Items
+and lids are kinematic (mocap) and never collide.
 """
 
 from __future__ import annotations
@@ -15,7 +17,8 @@ from __future__ import annotations
 import math
 from xml.sax.saxutils import quoteattr
 
-from ._catalogue import RGBA, ROOM_FLOOR_RGBA
+from ._catalogue import RGBA
+from ._dress import Dressing
 from ._layout import CARCASS, DOOR_HEIGHT, WALL_HEIGHT, Door, Furniture, HouseLayout, Item
 
 ROBOT_RADIUS = 0.25
@@ -126,6 +129,7 @@ def _item_geom(item: Item) -> str:
 def build_mjcf(layout: HouseLayout, *, offscreen: tuple[int, int] = (640, 480)) -> str:
     """The MJCF document of a house in its initial state."""
     width, height = layout.extent
+    dress = Dressing()
     lines = [
         f"<mujoco model={quoteattr(f'eagc_house_{layout.seed}')}>",
         '<compiler angle="radian" autolimits="true"/>',
@@ -135,59 +139,70 @@ def build_mjcf(layout: HouseLayout, *, offscreen: tuple[int, int] = (640, 480)) 
         "<visual>",
         '<quality shadowsize="0" offsamples="0"/>',
         f'<global offwidth="{max(offscreen[0], 64)}" offheight="{max(offscreen[1], 64)}"/>',
-        '<headlight ambient="0.45 0.45 0.45" diffuse="0.5 0.5 0.5" specular="0 0 0"/>',
+        '<headlight ambient="0.38 0.38 0.38" diffuse="0.4 0.4 0.4" specular="0 0 0"/>',
         '<map znear="0.02" zfar="60"/>',
         "</visual>",
+    ]
+    body = [
         "<worldbody>",
+        # light from above and aslant, so that faces of different slopes shade differently
         f'<light name="sun" directional="true" castshadow="false" '
-        f'pos="{_f(width / 2, height / 2, 10)}" dir="0 0 -1" diffuse="0.35 0.35 0.35"/>',
-        f'<geom name="floor" type="plane" size="{_f(width / 2 + 2, height / 2 + 2, 0.1)}" '
+        f'pos="{_f(width / 2, height / 2, 10)}" dir="0.35 0.5 -0.8" diffuse="0.45 0.45 0.42"/>',
+        # one render cell: the plane's grid only costs time (its pixels are the same)
+        f'<geom name="floor" type="plane" '
+        f'size="{_f(width / 2 + 2, height / 2 + 2, max(width, height) + 4)}" '
         f'pos="{_f(width / 2, height / 2, -0.002)}" rgba="0.5 0.5 0.5 1" group="4" {_NONE}/>',
     ]
     for room in layout.rooms:
         x0, y0, x1, y1 = room.bounds
-        lines.append(
+        body.append(
             f'<geom name="floor_{room.id}" type="box" '
             f'size="{_f((x1 - x0) / 2, (y1 - y0) / 2, 0.001)}" '
             f'pos="{_f((x0 + x1) / 2, (y0 + y1) / 2, 0)}" '
-            f'rgba="{_f(*ROOM_FLOOR_RGBA[room.type])}" group="4" {_NONE}/>'
+            f'material="{dress.floor(room.type)}" group="4" {_NONE}/>'
         )
     for k, wall in enumerate(layout.walls):
-        lines.append(
+        body.append(
             f'<geom name="wall_{k}" type="box" size="{_f(*wall.half, WALL_HEIGHT / 2)}" '
             f'pos="{_f(*wall.centre, WALL_HEIGHT / 2)}" rgba="0.92 0.91 0.88 1" '
             f'group="0" {_STATIC}/>'
         )
+        body.append(dress.wall(f"wallvis_{k}", wall.centre, wall.half, (0.0, WALL_HEIGHT)))
     for door in layout.doors:
-        lines.extend(_door_body(door))
+        body.extend(_door_body(door, dress))
     for f in layout.furniture:
-        lines.append(
+        body.append(
             f'<body name="furn_{f.id}" pos="{_f(*f.pos, 0)}" quat="{_f(*yaw_quat(f.yaw))}">'
         )
-        lines.extend(_furniture_geoms(f))
-        lines.append("</body>")
+        body.extend(_furniture_geoms(f))
+        body.extend(dress.furniture(f))
+        body.append("</body>")
         if f.kind == "container":
             pos, quat = lid_pose(f, f.initial_state == "open")
-            lines.append(
+            body.append(
                 f'<body name="lid_{f.id}" mocap="true" pos="{_f(*pos)}" quat="{_f(*quat)}">'
             )
-            lines.append(
+            body.append(
                 f'<geom name="lid_{f.id}_0" type="box" size="{_f(*_lid_size(f))}" '
                 f'rgba="{_LID_RGBA}" group="2" {_NONE}/>'
             )
-            lines.append("</body>")
+            body.extend(dress.lid(f))
+            body.append("</body>")
     for item in layout.items:
         rec = layout.entity(item.receptacle)
         assert isinstance(rec, Furniture)
         pos = layout.item_position(item, item.receptacle, item.slot)
-        lines.append(
+        body.append(
             f'<body name="item_{item.id}" mocap="true" pos="{_f(*pos)}" '
             f'quat="{_f(*yaw_quat(rec.yaw))}">'
         )
-        lines.append(_item_geom(item))
-        lines.append("</body>")
-    lines.extend(_robot_body())
-    lines.append("</worldbody>")
+        body.append(_item_geom(item))
+        body.extend(dress.item(item))
+        body.append("</body>")
+    body.extend(_robot_body())
+    body.append("</worldbody>")
+    lines.extend(dress.assets())
+    lines.extend(body)
     lines.append("<actuator>")
     lim = max(width, height) + 2
     for axis in ("x", "y"):
@@ -218,7 +233,7 @@ def build_mjcf(layout: HouseLayout, *, offscreen: tuple[int, int] = (640, 480)) 
     return "\n".join(lines)
 
 
-def _door_body(door: Door) -> list[str]:
+def _door_body(door: Door, dress: Dressing) -> list[str]:
     w = door.width
     half = (w / 2 - 0.02, 0.025, DOOR_HEIGHT / 2 - 0.01)
     x, y = door.hinge
@@ -229,6 +244,7 @@ def _door_body(door: Door) -> list[str]:
         f'size="{_f(*lintel_half, (WALL_HEIGHT - DOOR_HEIGHT) / 2)}" '
         f'pos="{_f(*lintel_c, (WALL_HEIGHT + DOOR_HEIGHT) / 2)}" rgba="0.92 0.91 0.88 1" '
         f'group="0" {_STATIC}/>',
+        dress.wall(f"lintelvis_{door.id}", lintel_c, lintel_half, (DOOR_HEIGHT, WALL_HEIGHT)),
         f'<body name="door_{door.id}" pos="{_f(x, y, 0)}" quat="{_f(*yaw_quat(door.yaw))}">',
         f'<joint name="door_{door.id}" type="hinge" axis="0 0 1" damping="5" armature="0.2" '
         'range="-1.65 1.65"/>',
@@ -237,6 +253,7 @@ def _door_body(door: Door) -> list[str]:
         f'group="1" {_STATIC}/>',
         f'<geom name="doorlamp_{door.id}" type="box" size="0.05 0.035 0.05" '
         f'pos="{_f(w - 0.15, 0, 1.1)}" rgba="{LAMP_RGBA[False]}" group="1" mass="0.01" {_NONE}/>',
+        *dress.door(door),
         "</body>",
     ]
 

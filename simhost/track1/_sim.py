@@ -14,6 +14,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # headless by default; only effective
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ._dress import VISUAL_GROUP  # noqa: E402
 from ._layout import Door, Furniture, HouseLayout  # noqa: E402
 from ._mjcf import (  # noqa: E402
     EYE_HEIGHT,
@@ -32,6 +33,9 @@ _RAY_GROUPS = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)
 """Line of sight: walls and furniture, doors, container lids (items never occlude)."""
 _SCAN_GROUPS = np.array([1, 1, 0, 0, 0, 0], dtype=np.uint8)
 """Range scan: what the base can collide with (walls and furniture, doors)."""
+_DRAWN_GROUPS = tuple(int(g == VISUAL_GROUP) for g in range(mujoco.mjNGROUP))
+"""The camera draws the textured floors and visual twins only, never a primitive."""
+_GREY = np.array((0.3, 0.3, 0.3, 1.0), dtype=np.float32)
 
 
 def _rgba(text: str) -> np.ndarray:
@@ -88,15 +92,27 @@ class HouseSim:
             for f in layout.furniture
             if f.kind == "container"
         }
+        self.door_lamp_drawn = {
+            d.id: mujoco.mj_name2id(m, name.mjOBJ_GEOM, f"doorlamp_{d.id}_v") for d in layout.doors
+        }
+        self.lid_drawn = {fid: np.zeros(0, dtype=np.int32) for fid in self.lid_geom}
+        """A container's drawn lid parts (they turn grey as its primitive lid does)."""
         self.geom_instance = np.full(m.ngeom, -1, dtype=np.int32)
         for g in range(m.ngeom):
             gname = mujoco.mj_id2name(m, name.mjOBJ_GEOM, g) or ""
             parts = gname.split("_")
             if parts[0] in ("door", "doorlamp", "furn", "lid", "item") and len(parts) >= 2:
                 self.geom_instance[g] = int(parts[1])
+                if parts[0] == "lid" and parts[-1].startswith("v"):
+                    self.lid_drawn[int(parts[1])] = np.append(self.lid_drawn[int(parts[1])], g)
+        self._lid_rgba = {fid: m.geom_rgba[g].copy() for fid, g in self.lid_drawn.items()}
         self.ctrl_lo = m.actuator_ctrlrange[:, 0].copy()
         self.ctrl_hi = m.actuator_ctrlrange[:, 1].copy()
         self._renderer: mujoco.Renderer | None = None
+        self._segment_instance = np.zeros(0, dtype=np.int32)
+        self._stepped = False
+        """True while ``data`` holds ``mj_step1``'s results for its current state, so that
+        the next :meth:`step` may start at ``mj_step2``."""
         self._ray_geom = np.zeros(1, dtype=np.int32)
         self.reveal_exceptions = True
         """Whether a locked door's lamp turns red and an unavailable container's lid grey."""
@@ -105,6 +121,7 @@ class HouseSim:
     def reset(self, world: WorldState, pose: tuple[float, float, float]) -> None:
         """Reset the data to a symbolic state and a robot pose."""
         mujoco.mj_resetData(self.model, self.data)
+        self._stepped = False
         self.set_robot_pose(*pose)
         self.sync(world)
 
@@ -118,7 +135,7 @@ class HouseSim:
         for item in self.layout.items:
             self.place_item_mocap(world, item.id)
         self.sync_visuals(world)
-        mujoco.mj_forward(self.model, self.data)
+        self.forward()
 
     def sync_visuals(self, world: WorldState) -> None:
         """Model-side colours (not part of the MuJoCo state) from the symbolic state; a
@@ -126,12 +143,17 @@ class HouseSim:
         show = self.reveal_exceptions
         for door_id, geom in self.door_lamp.items():
             self.model.geom_rgba[geom] = _rgba(LAMP_RGBA[show and world.doors[door_id] == "locked"])
+        for door_id, geom in self.door_lamp_drawn.items():
+            self.model.geom_rgba[geom] = self.model.geom_rgba[self.door_lamp[door_id]]
         for fid, geom in self.lid_geom.items():
             grey = show and fid in world.unavailable
             self.model.geom_rgba[geom] = (0.3, 0.3, 0.3, 1) if grey else (0.35, 0.45, 0.62, 1)
+            drawn = self.lid_drawn[fid]
+            self.model.geom_rgba[drawn] = _GREY if grey else self._lid_rgba[fid]
 
     def set_door(self, door: Door, state: str) -> None:
         """Teleport a door to its state's angle and set its lock."""
+        self._stepped = False
         angle = door.open_angle if state == "open" else 0.0
         self.data.qpos[self.door_qpos[door.id]] = angle
         self.data.qvel[self.door_dof[door.id]] = 0.0
@@ -140,12 +162,14 @@ class HouseSim:
 
     def set_lid(self, f: Furniture, is_open: bool) -> None:
         """Move a container's lid (mocap) open or closed."""
+        self._stepped = False
         pos, quat = lid_pose(f, is_open)
         self.data.mocap_pos[self.mocap[f.id]] = pos
         self.data.mocap_quat[self.mocap[f.id]] = quat
 
     def place_item_mocap(self, world: WorldState, item_id: int) -> None:
         """Put an item's body where the symbolic state says: slot, hand or hidden."""
+        self._stepped = False
         k = self.mocap[item_id]
         if item_id == world.held:
             self.data.mocap_pos[k], self.data.mocap_quat[k] = self.hand_pose()
@@ -167,6 +191,7 @@ class HouseSim:
 
     def set_robot_pose(self, x: float, y: float, yaw: float) -> None:
         """Teleport the robot (zero velocity, controllers aimed at the pose)."""
+        self._stepped = False
         for k, v in enumerate((x, y, yaw)):
             self.data.qpos[self.robot_qpos[k]] = v
             self.data.qvel[self.robot_dof[k]] = 0.0
@@ -183,6 +208,7 @@ class HouseSim:
         yaw = float(self.data.qpos[q])
         if abs(yaw) > math.pi:
             wrapped = math.atan2(math.sin(yaw), math.cos(yaw))
+            self._stepped = False
             self.data.qpos[q] = wrapped
             self.set_ctrl(
                 int(self.robot_act[2]), float(self.data.ctrl[self.robot_act[2]]) + wrapped - yaw
@@ -210,17 +236,34 @@ class HouseSim:
         return bool(np.any(self.data.contact.geom[:n] == self.robot_geom))
 
     def step(self, held: int) -> bool:
-        """One physics step, carrying a held item; returns whether the robot is in contact."""
-        mujoco.mj_step(self.model, self.data)
+        """One physics step, carrying a held item; returns whether the robot is in contact.
+
+        ``mj_step`` split in two: ``mj_step1`` (positions, contacts, velocities) ends a step
+        at the new state, where the contact check and every reader between steps need it,
+        and the next step starts at ``mj_step2`` instead of computing it again. The same
+        arithmetic as ``mj_step`` followed by ``mj_fwdPosition``: states are bit-identical.
+        A change to the state outside a step (:meth:`invalidate`) makes the next step
+        begin with ``mj_step1``.
+        """
+        m, d = self.model, self.data
+        if not self._stepped:
+            mujoco.mj_step1(m, d)
+        mujoco.mj_step2(m, d)
         if held >= 0:
             k = self.mocap[held]
-            self.data.mocap_pos[k], self.data.mocap_quat[k] = self.hand_pose()
-        mujoco.mj_fwdPosition(self.model, self.data)
+            d.mocap_pos[k], d.mocap_quat[k] = self.hand_pose()
+        mujoco.mj_step1(m, d)
+        self._stepped = True
         return self.robot_in_contact()
+
+    def invalidate(self) -> None:
+        """Note a change of ``data`` outside :meth:`step` (a teleport, a lock, a mocap)."""
+        self._stepped = False
 
     def forward(self) -> None:
         """Recompute derived quantities (positions, contacts) after a teleport."""
         mujoco.mj_forward(self.model, self.data)
+        self._stepped = True
 
     # ----------------------------------------------------------------- sensing
     def range_scan(self, n: int, max_range: float) -> np.ndarray:
@@ -286,7 +329,7 @@ class HouseSim:
     def set_physics(self, state: np.ndarray) -> None:
         """Restore an integration state and recompute derived quantities."""
         mujoco.mj_setState(self.model, self.data, state, STATE_SPEC)
-        mujoco.mj_forward(self.model, self.data)
+        self.forward()
 
     def state_size(self) -> int:
         """Length of :meth:`get_physics`."""
@@ -301,27 +344,68 @@ class HouseSim:
         }
 
     def render_rgbd(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """RGB uint8[H,W,3], depth float32[H,W] (metres) and instance ids int32[H,W] (-1: none)."""
+        """RGB uint8[H,W,3], depth float32[H,W] (metres) and instance ids int32[H,W] (-1: none).
+
+        Two passes of one ``mujoco.Renderer``'s context: the lit scene, read back as RGB and
+        depth together, and the segmentation scene; the same pixels and depths as the
+        renderer's own ``render()`` in its RGB, depth and segmentation modes.
+        """
         if self._renderer is None:
             self._renderer = mujoco.Renderer(self.model, height, width)
             self._scene_option = mujoco.MjvOption()
-            self._scene_option.geomgroup[:] = (1, 1, 1, 1, 1, 0)  # everything but the robot
+            self._scene_option.geomgroup[:] = _DRAWN_GROUPS
+            self._rgb = np.empty((height, width, 3), dtype=np.uint8)
+            self._zbuf = np.empty((height, width), dtype=np.float32)
+            self._seg = np.empty((height, width, 3), dtype=np.uint8)
         r = self._renderer
         r.update_scene(self.data, camera="eye", scene_option=self._scene_option)
-        rgb = r.render().copy()
-        r.enable_depth_rendering()
-        depth = r.render().astype(np.float32)
-        r.disable_depth_rendering()
-        r.enable_segmentation_rendering()
-        seg = r.render()
-        r.disable_segmentation_rendering()
-        ids = np.full(seg.shape[:2], -1, dtype=np.int32)
-        is_geom = (seg[:, :, 1] == int(mujoco.mjtObj.mjOBJ_GEOM)) & (seg[:, :, 0] >= 0)
-        ids[is_geom] = self.geom_instance[seg[:, :, 0][is_geom]]
-        return rgb, depth, ids
+        scene, context, rect = r.scene, r._mjr_context, r._rect  # noqa: SLF001
+        if r._gl_context:  # noqa: SLF001
+            r._gl_context.make_current()  # noqa: SLF001
+        mujoco.mjr_render(rect, scene, context)
+        mujoco.mjr_readPixels(self._rgb, self._zbuf, rect, context)
+        flags = scene.flags
+        segment, idcolor = mujoco.mjtRndFlag.mjRND_SEGMENT, mujoco.mjtRndFlag.mjRND_IDCOLOR
+        saved = (flags[segment], flags[idcolor])
+        flags[segment] = flags[idcolor] = 1
+        try:
+            mujoco.mjr_render(rect, scene, context)
+        finally:
+            flags[segment], flags[idcolor] = saved
+        mujoco.mjr_readPixels(self._seg, None, rect, context)
+        rgb = np.flipud(self._rgb).copy()
+        depth = _metric_depth(np.flipud(self._zbuf), self.model)
+        seg = np.flipud(self._seg).astype(np.int32)
+        segid = seg[:, :, 0] + (seg[:, :, 1] << 8) + (seg[:, :, 2] << 16)
+        return rgb, depth, self._segment_table(scene)[segid]
+
+    def _segment_table(self, scene: mujoco.MjvScene) -> np.ndarray:
+        """Instance id by segmentation colour (scene geom index + 1; 0: background)."""
+        n = scene.ngeom
+        if len(self._segment_instance) != n + 1:
+            table = np.full(n + 1, -1, dtype=np.int32)
+            geom = int(mujoco.mjtObj.mjOBJ_GEOM)
+            for k in range(n):
+                g = scene.geoms[k]
+                if g.segid >= 0 and g.objtype == geom and g.objid >= 0:
+                    table[g.segid + 1] = self.geom_instance[g.objid]
+            self._segment_instance = table
+        return self._segment_instance
 
     def close(self) -> None:
         """Release the renderer, if any."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+def _metric_depth(zbuf: np.ndarray, model: mujoco.MjModel) -> np.ndarray:
+    """Metres from the depth buffer of a perspective camera (``mujoco.Renderer``'s formula)."""
+    extent = model.stat.extent
+    zfar = np.float32(model.vis.map.zfar * extent)
+    znear = np.float32(model.vis.map.znear * extent)
+    c_coef = -(zfar + znear) / (zfar - znear)
+    d_coef = -(np.float32(2) * zfar * znear) / (zfar - znear)
+    c_coef = np.float32(-0.5) * c_coef - np.float32(0.5)
+    d_coef = np.float32(-0.5) * d_coef
+    return (d_coef / (zbuf.astype(np.float64) + c_coef)).astype(np.float32)

@@ -68,9 +68,11 @@ ROBOT_SENSING = HouseEnvConfig(
     room_sign="on_entry",
     reveal_exceptions=False,
     render_rgbd=True,
-    image_size=(96, 72),
+    image_size=(256, 192),
 )
-"""What the robot perceives on the official splits."""
+"""What the robot perceives on the official splits. 256x192 keeps the 4:3 view (75 degrees
+high, 91 wide) of the earlier 96x72 images at the pixel count of a 224x224 vision model's
+input (49,152 vs 50,176 pixels): a team resizes or crops without losing the field of view."""
 
 SPLITS: dict[str, HouseSplit] = {
     "dev": HouseSplit(name="dev", params=HouseParams.dev(), config=HouseEnvConfig()),

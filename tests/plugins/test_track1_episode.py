@@ -268,13 +268,23 @@ def test_budgets_and_poses_are_the_episodes_own() -> None:
         ep.close()
 
 
+def test_a_campaign_sets_the_image_size_in_its_split_params() -> None:
+    ep = _episode(1, "standard", render_rgbd=True, image_size=[128, 96])
+    try:
+        names = {f.name: f for f in ep.observation_spec}
+        assert names["rgb"].shape == (96, 128, 3)
+        assert ep.observe().tensors["segmentation"].shape == (96, 128)
+    finally:
+        ep.close()
+
+
 def test_camera_images_on_the_official_splits() -> None:
     ep = _episode(1, "standard", render_rgbd=True)
     try:
         names = {f.name: f for f in ep.observation_spec}
-        assert names["rgb"].shape == (72, 96, 3) and names["rgb"].tensor
+        assert names["rgb"].shape == (192, 256, 3) and names["rgb"].tensor
         obs = ep.observe()
-        assert obs.tensors["rgb"].shape == (72, 96, 3) and obs.tensors["rgb"].std() > 0
+        assert obs.tensors["rgb"].shape == (192, 256, 3) and obs.tensors["rgb"].std() > 0
         assert obs.tensors["segmentation"].dtype == np.int32
         assert float(obs.tensors["depth"].max()) <= names["depth"].high  # type: ignore[operator]
     finally:

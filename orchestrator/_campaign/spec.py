@@ -96,16 +96,22 @@ def load_campaign(path: Path | str) -> CampaignSpec:
         raise SchemaError(str(path), [f"not valid YAML: {e}"]) from None
     if not isinstance(doc, dict):
         raise SchemaError(str(path), ["(top level): a campaign file is a mapping (name: …)"])
-    spec = parse_json(json.dumps(doc, default=str), CampaignSpec, source=str(path))
+    spec = resolved(parse_json(json.dumps(doc, default=str), CampaignSpec, source=str(path)),
+                    path.parent)
+    check_campaign(spec, source=str(path))
+    return spec
+
+
+def resolved(spec: CampaignSpec, folder: Path) -> CampaignSpec:
+    """The spec with its submissions' relative file paths (archive, disclosure) taken
+    against ``folder``, the campaign file's."""
     def beside(p: Path | None) -> Path | None:
-        return (path.parent / p).resolve() if p is not None and not p.is_absolute() else p
+        return (folder / p).resolve() if p is not None and not p.is_absolute() else p
 
     subs = tuple(s.model_copy(update={"archive": beside(s.archive),
                                       "disclosure": beside(s.disclosure)})
                  for s in spec.submissions)
-    spec = spec.model_copy(update={"submissions": subs})
-    check_campaign(spec, source=str(path))
-    return spec
+    return spec.model_copy(update={"submissions": subs})
 
 
 def check_campaign(spec: CampaignSpec, *, source: str) -> None:

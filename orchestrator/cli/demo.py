@@ -62,7 +62,7 @@ def _load(path: Path, output: Path | None) -> Any:
 
     import yaml
 
-    from orchestrator._campaign.spec import check_campaign, load_campaign
+    from orchestrator._campaign.spec import check_campaign, load_campaign, resolved
     from schemas import CampaignSpec, SchemaError, parse_json
 
     if output is None:
@@ -77,7 +77,8 @@ def _load(path: Path, output: Path | None) -> Any:
         doc = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as e:
         raise SchemaError(str(path), [f"cannot read the demo file: {e}"]) from None
-    spec = parse_json(json.dumps(doc, default=str), CampaignSpec, source=str(path))
+    spec = resolved(parse_json(json.dumps(doc, default=str), CampaignSpec, source=str(path)),
+                    path.parent)
     spec = spec.model_copy(update={"output": output})
     check_campaign(spec, source=str(path))
     return spec

@@ -70,3 +70,16 @@ def test_the_local_demo_says_why_it_ranks_apart_and_shows_its_results(out: Path)
     assert again.returncode == 0, again.stderr[-3000:]
     assert "4 episode(s) were already in the store" in again.stderr
     assert again.stdout == r.stdout
+
+
+@pytest.mark.parametrize("demo", sorted(p.name for p in DEMOS.glob("demo_*.yaml")))
+def test_a_demo_with_its_own_output_finds_its_teams_disclosures(
+        demo: str, out: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``eagc demo --output DIR`` (the quickstart's) reads the demo file's relative paths
+    against the file, from any working directory."""
+    from orchestrator.cli.demo import _load
+
+    monkeypatch.chdir(tmp_path)
+    spec = _load(DEMOS / demo, out)
+    named = [s.disclosure for s in spec.submissions if s.disclosure is not None]
+    assert named and all(p.is_absolute() and p.is_file() for p in named), named

@@ -10,7 +10,8 @@ holds nothing of another team and nothing of the hidden scenario; the organizer'
 docs/viewer.md says how to use it.
 
 - ``episode``: one episode folder read into what its page shows (``read_episode``)
-- ``frames``: camera frames from the MCAP log as small PNG thumbnails, within a budget
+- ``frames``: camera frames from the MCAP log as small thumbnails, within a budget
+- ``jpeg``: a baseline JPEG encoder for the RGB thumbnails of textured scenes
 - ``site``: the pages, from the Jinja2 ``templates/``
 """
 

@@ -5,7 +5,9 @@ page carries thumbnails at most ``THUMB_WIDTH`` pixels wide (a wider frame is sc
 to exactly that width, whatever the camera's resolution: 96x72 stays as it is, 256x192
 shows at 192x144, 640x480 too), PNG with the "up" filter, as ``data:`` URIs, within a byte
 budget: frames are thinned evenly until they fit, so a page stays under 2 MB at any
-resolution (a textured scene's frames cost more bytes each, so fewer of them are kept).
+resolution. RGB goes as JPEG where that is smaller (``jpeg``: a textured frame at 192x144
+is a tenth of its PNG), so a textured episode keeps about as many frames as a flat-shaded
+one; depth (grey, smooth) and segmentation (labels: exact) stay PNG.
 """
 
 from __future__ import annotations
@@ -17,12 +19,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from orchestrator._viewer.jpeg import encode_jpeg
+
 #: Widest thumbnail on a page, in pixels.
 THUMB_WIDTH = 192
 #: Most frames on one page (the recorder keeps at most 120 by step, plus the timed ones).
 MAX_FRAMES = 120
 #: Bytes of encoded thumbnails one page may carry (base64 adds a third).
 FRAME_BUDGET = 1_100_000
+#: JPEG quality of the RGB thumbnails (where a JPEG is smaller than the PNG).
+JPEG_QUALITY = 80
 
 
 @dataclass(frozen=True)
@@ -127,8 +133,16 @@ def _area_weights(n_in: int, n_out: int) -> np.ndarray:
     return (overlap / scale).astype(np.float32)
 
 
-def data_uri(png: bytes) -> str:
-    return "data:image/png;base64," + base64.b64encode(png).decode()
+def data_uri(data: bytes, mime: str = "image/png") -> str:
+    return f"data:{mime};base64," + base64.b64encode(data).decode()
+
+
+def compact_rgb(img: np.ndarray) -> tuple[bytes, str]:
+    """The smaller of a PNG and a JPEG (quality ``JPEG_QUALITY``) of an RGB thumbnail, and
+    its MIME type: a flat-shaded frame stays PNG, exact; a textured one becomes JPEG."""
+    png = encode_png(img)
+    jpg = encode_jpeg(img, JPEG_QUALITY)
+    return (jpg, "image/jpeg") if len(jpg) < len(png) else (png, "image/png")
 
 
 def page_frames(frames: list[Frame], budget: int = FRAME_BUDGET) -> list[dict[str, object]]:
@@ -154,7 +168,8 @@ def _encode(f: Frame) -> tuple[dict[str, object], int]:
                               ("segmentation", f.segmentation, False)):
         if img is None:
             continue
-        png = encode_png(thumbnail(img, smooth=smooth))
-        size += len(png)
-        out[name] = data_uri(png)
+        small = thumbnail(img, smooth=smooth)
+        data, mime = compact_rgb(small) if name == "rgb" else (encode_png(small), "image/png")
+        size += len(data)
+        out[name] = data_uri(data, mime)
     return out, size

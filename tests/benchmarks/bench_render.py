@@ -327,7 +327,6 @@ def child_main(spec: dict[str, Any]) -> dict[str, Any]:
         ours = _replay(case.env, case.seed, episodes, warm, n, True, case.model_data)
         out["hwm_kib"] = _status_kib("VmHWM")
         out["base_kib"] = base_kib
-        out["gl"] = _gl_renderer()
         out["step_ns"], out["k"] = ours["ns"], ours["k"]
         m, d = case.model_data()
         sig = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -336,6 +335,8 @@ def child_main(spec: dict[str, Any]) -> dict[str, Any]:
         raw = _RawRenderer(case)
         out["render_ns"], out["raw_render_ns"] = [], []
         try:
+            raw.render()  # its context is current now: the GL renderer's name
+            out["gl"] = _gl_renderer()
             stride = max(1, len(ours["states"]) // pairs)
             states = ours["states"][::stride][:pairs]
             for half in (states[0::2], states[1::2]):

@@ -36,6 +36,8 @@ _SCAN_GROUPS = np.array([1, 1, 0, 0, 0, 0], dtype=np.uint8)
 _DRAWN_GROUPS = tuple(int(g == VISUAL_GROUP) for g in range(mujoco.mjNGROUP))
 """The camera draws the textured floors and visual twins only, never a primitive."""
 _GREY = np.array((0.3, 0.3, 0.3, 1.0), dtype=np.float32)
+_CULL_SCALE, _CULL_MARGIN = 1.01, 0.01
+"""A geom is culled only when its bounding sphere, grown by 1 % and 1 cm, is out of view."""
 
 
 def _rgba(text: str) -> np.ndarray:
@@ -110,6 +112,9 @@ class HouseSim:
         self.ctrl_hi = m.actuator_ctrlrange[:, 1].copy()
         self._renderer: mujoco.Renderer | None = None
         self._segment_instance = np.zeros(0, dtype=np.int32)
+        self._cull_slot = np.zeros(0, dtype=np.int64)
+        self._cull_geom = np.zeros(0, dtype=np.int64)
+        self._cull_radius = np.zeros(0)
         self._stepped = False
         """True while ``data`` holds ``mj_step1``'s results for its current state, so that
         the next :meth:`step` may start at ``mj_step2``."""
@@ -348,7 +353,9 @@ class HouseSim:
 
         Two passes of one ``mujoco.Renderer``'s context: the lit scene, read back as RGB and
         depth together, and the segmentation scene; the same pixels and depths as the
-        renderer's own ``render()`` in its RGB, depth and segmentation modes.
+        renderer's own ``render()`` in its RGB, depth and segmentation modes. Scene geoms
+        whose bounding sphere lies wholly outside the camera's view are not drawn in either
+        pass (:meth:`_cull`): they give no pixel, and each costs a draw call per pass.
         """
         if self._renderer is None:
             self._renderer = mujoco.Renderer(self.model, height, width)
@@ -362,16 +369,23 @@ class HouseSim:
         scene, context, rect = r.scene, r._mjr_context, r._rect  # noqa: SLF001
         if r._gl_context:  # noqa: SLF001
             r._gl_context.make_current()  # noqa: SLF001
-        mujoco.mjr_render(rect, scene, context)
-        mujoco.mjr_readPixels(self._rgb, self._zbuf, rect, context)
+        geoms = scene.geoms
+        culled = self._cull(scene, width / height)
+        types = [int(geoms[k].type) for k in culled]
+        for k in culled:
+            geoms[k].type = mujoco.mjtGeom.mjGEOM_NONE
         flags = scene.flags
         segment, idcolor = mujoco.mjtRndFlag.mjRND_SEGMENT, mujoco.mjtRndFlag.mjRND_IDCOLOR
         saved = (flags[segment], flags[idcolor])
-        flags[segment] = flags[idcolor] = 1
         try:
+            mujoco.mjr_render(rect, scene, context)
+            mujoco.mjr_readPixels(self._rgb, self._zbuf, rect, context)
+            flags[segment] = flags[idcolor] = 1
             mujoco.mjr_render(rect, scene, context)
         finally:
             flags[segment], flags[idcolor] = saved
+            for k, kind in zip(culled, types, strict=True):
+                geoms[k].type = kind
         mujoco.mjr_readPixels(self._seg, None, rect, context)
         rgb = np.flipud(self._rgb).copy()
         depth = _metric_depth(np.flipud(self._zbuf), self.model)
@@ -381,16 +395,68 @@ class HouseSim:
 
     def _segment_table(self, scene: mujoco.MjvScene) -> np.ndarray:
         """Instance id by segmentation colour (scene geom index + 1; 0: background)."""
-        n = scene.ngeom
-        if len(self._segment_instance) != n + 1:
-            table = np.full(n + 1, -1, dtype=np.int32)
-            geom = int(mujoco.mjtObj.mjOBJ_GEOM)
-            for k in range(n):
-                g = scene.geoms[k]
-                if g.segid >= 0 and g.objtype == geom and g.objid >= 0:
-                    table[g.segid + 1] = self.geom_instance[g.objid]
-            self._segment_instance = table
+        self._index_scene(scene)
         return self._segment_instance
+
+    def _index_scene(self, scene: mujoco.MjvScene) -> None:
+        """What the scene's geoms are, once per scene layout: the segmentation table, and
+        the model geom and bounding radius of each scene geom that may be culled.
+
+        The scene holds the drawn group's geoms in model order whatever the state (colours
+        change, never which geoms are drawn), so its layout is known by its length.
+        """
+        n = scene.ngeom
+        if len(self._segment_instance) == n + 1:
+            return
+        table = np.full(n + 1, -1, dtype=np.int32)
+        slots, objids = [], []
+        geom, plane = int(mujoco.mjtObj.mjOBJ_GEOM), int(mujoco.mjtGeom.mjGEOM_PLANE)
+        for k in range(n):
+            g = scene.geoms[k]
+            if g.objtype != geom or g.objid < 0:
+                continue
+            if g.segid >= 0:
+                table[g.segid + 1] = self.geom_instance[g.objid]
+            if g.type != plane and self.model.geom_rbound[g.objid] > 0:
+                slots.append(k)
+                objids.append(g.objid)
+        self._segment_instance = table
+        self._cull_slot = np.array(slots, dtype=np.int64)
+        self._cull_geom = np.array(objids, dtype=np.int64)
+        self._cull_radius = self.model.geom_rbound[self._cull_geom] * _CULL_SCALE + _CULL_MARGIN
+
+    def _cull(self, scene: mujoco.MjvScene, aspect: float) -> list[int]:
+        """Scene geoms whose bounding sphere lies wholly outside the camera's view frustum
+        (behind the near plane or beyond a side plane), with a margin; planes are kept.
+
+        The frustum is the scene camera's, as ``mjr_render`` sets it up: top and bottom at
+        the near distance, and a half-width of the viewport's aspect times the half-height
+        about its centre (or the camera's own width where it has one).
+        """
+        self._index_scene(scene)
+        if len(self._cull_slot) == 0:
+            return []
+        cam = scene.camera[0]
+        pos = np.asarray(cam.pos, dtype=np.float64)
+        forward = np.asarray(cam.forward, dtype=np.float64)
+        up = np.asarray(cam.up, dtype=np.float64)
+        right = np.cross(forward, up)
+        near = float(cam.frustum_near)
+        bottom, top = float(cam.frustum_bottom), float(cam.frustum_top)
+        half = max(0.5 * aspect * (top - bottom), float(cam.frustum_width))
+        centre = float(cam.frustum_center)
+        rel = self.data.geom_xpos[self._cull_geom] - pos
+        x, y, f = rel @ right, rel @ up, rel @ forward
+        radius = self._cull_radius
+        out = f < near - radius
+        for slope, sign, coord in (
+            ((centre + half) / near, 1.0, x),
+            ((centre - half) / near, -1.0, x),
+            (top / near, 1.0, y),
+            (bottom / near, -1.0, y),
+        ):
+            out |= sign * (coord - slope * f) / math.sqrt(1.0 + slope * slope) > radius
+        return self._cull_slot[out].tolist()
 
     def close(self) -> None:
         """Release the renderer, if any."""

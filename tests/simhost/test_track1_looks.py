@@ -12,6 +12,7 @@ import re
 
 import mujoco
 import numpy as np
+import pytest
 
 from simhost.track1 import HouseEnv, generate_house, house_split, make_action
 from simhost.track1._dress import VISUAL_GROUP
@@ -134,8 +135,13 @@ def _reference_render(sim: HouseSim, w: int, h: int) -> tuple[np.ndarray, ...]:
     return rgb, depth, ids
 
 
-def _episode(reference: bool) -> list[tuple[np.ndarray, ...]]:
-    env = HouseEnv(split="standard", image_size=(128, 96))
+def _episode(
+    reference: bool, split: str = "standard", size: tuple[int, int] = (128, 96)
+) -> list[tuple[np.ndarray, ...]]:
+    """24 steps of moves and object actions; per step the state, then the observation's
+    images (the reference: the renderer's own passes) and its other channels."""
+    w, h = size
+    env = HouseEnv(split=split, image_size=size)
     obs, _ = env.reset(seed=SEED)
     house = env.unwrapped._house()  # type: ignore[attr-defined]
     sim = house.sim
@@ -154,22 +160,46 @@ def _episode(reference: bool) -> list[tuple[np.ndarray, ...]]:
             )
         obs, *_ = env.step(action)
         images = (
-            _reference_render(sim, 128, 96)
+            _reference_render(sim, w, h)
             if reference
             else (obs["rgb"], obs["depth"], obs["segmentation"])
         )
-        out.append((sim.get_physics(), sim.data.qpos.copy(), sim.data.geom_xpos.copy(), *images))
+        rest = tuple(obs[key] for key in sorted(obs) if key not in ("rgb", "depth", "segmentation"))
+        out.append((sim.get_physics(), sim.data.qpos.copy(), sim.data.geom_xpos.copy(), *images,
+                    *rest))
     env.close()
     return out
 
 
-def test_optimized_step_and_render_match_the_plain_path() -> None:
-    ours = _episode(False)
-    ref = _episode(True)
+@pytest.mark.parametrize(("split", "size"), [("standard", (128, 96)), ("challenge", (256, 192))])
+def test_optimized_step_and_render_match_the_plain_path(split: str, size: tuple[int, int]) -> None:
+    ours = _episode(False, split, size)
+    ref = _episode(True, split, size)
     for k, (a, b) in enumerate(zip(ours, ref, strict=True)):
         for x, y in zip(a[:3], b[:3], strict=True):
             assert np.array_equal(x, y), f"state differs at step {k}"
-        rgb, depth, seg = b[3:]
+        rgb, depth, seg = b[3:6]
         assert np.array_equal(a[3], rgb), f"rgb differs at step {k}"
         assert np.array_equal(a[4], np.minimum(depth, np.float32(100.0))), k
         assert np.array_equal(a[5], seg), f"segmentation differs at step {k}"
+        for x, y in zip(a[6:], b[6:], strict=True):
+            assert np.array_equal(x, y), f"an observation channel differs at step {k}"
+
+
+def test_culling_leaves_out_geoms_the_camera_cannot_see() -> None:
+    """The render skips scene geoms out of view (so the identity test above covers them)
+    and keeps every geom that gives a pixel."""
+    env = _official_env()
+    sim = env.unwrapped._house().sim  # type: ignore[attr-defined]
+    r = sim._renderer  # noqa: SLF001
+    assert r is not None
+    r.update_scene(sim.data, camera="eye", scene_option=sim._scene_option)  # noqa: SLF001
+    culled = sim._cull(r.scene, 256 / 192)  # noqa: SLF001
+    assert 0 < len(culled) < r.scene.ngeom
+    seen = set(np.unique(env.observe()[0]["segmentation"]).tolist()) - {-1}
+    culled_instances = {int(sim.geom_instance[r.scene.geoms[k].objid]) for k in culled}
+    drawn = {int(sim.geom_instance[r.scene.geoms[k].objid])
+             for k in range(r.scene.ngeom) if k not in set(culled)}
+    assert seen <= drawn
+    assert culled_instances - seen, "some culled entity is out of view entirely"
+    env.close()

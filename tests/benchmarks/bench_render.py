@@ -36,7 +36,9 @@ size (a candidate before the tracks adopt it). For each case and size, in one pr
 Step figures are means per step (steps differ: a Track 1 ``move`` runs ~85 substeps, a
 ``noop`` few; Track 2 renders every 2nd or 3rd step), render figures medians per call; each
 process is one round of one case and size, rounds interleave every case and size (so load
-elsewhere spreads over all), and the table shows the median over rounds. Rendering is
+elsewhere spreads over all), and the table shows the median over rounds of each figure and
+of each ratio (a ratio is taken within its round: both sides ran seconds apart in one
+process, so the machine's load cancels out of it). Rendering is
 through EGL (``MUJOCO_GL=egl``). On a CPU-only machine that is Mesa's llvmpipe; where a
 GPU is found (``/dev/nvidia0`` or ``nvidia-smi``; ``--gpu`` / ``--no-gpu`` decide), every
 round also runs on it, and the CPU rows are forced onto Mesa (glvnd's vendor file); each
@@ -84,11 +86,13 @@ def _status_kib(field: str) -> int:
 
 
 def _gl_renderer() -> str:
-    """The OpenGL renderer string of the current (EGL) context, if it can be read."""
-    with contextlib.suppress(Exception):
-        from OpenGL import GL
+    """The OpenGL renderer string of the current (EGL) context, if it can be read (twice:
+    PyOpenGL raises a GL error left over from earlier calls, and that clears it)."""
+    for _ in range(2):
+        with contextlib.suppress(Exception):
+            from OpenGL import GL
 
-        return str(GL.glGetString(GL.GL_RENDERER).decode())
+            return str(GL.glGetString(GL.GL_RENDERER).decode())
     return "?"
 
 
@@ -486,7 +490,7 @@ def _summary(parts: list[dict[str, Any]]) -> dict[str, Any]:
     for p in parts:
         raw_render = med_ms(p["raw_render_ns"])
         phys = mean_ms(p["phys_ns"])
-        per_round.append({
+        r = {
             "render_ms": med_ms(p["render_ns"]),
             "raw_render_ms": raw_render,
             "step_ms": mean_ms(p["step_ns"]),
@@ -494,11 +498,13 @@ def _summary(parts: list[dict[str, Any]]) -> dict[str, Any]:
             "bare_ms": mean_ms(p["bare_ns"]),
             "phys_ms": phys,
             "substeps": sum(p["k"]) / len(p["k"]),
-        })
+        }
+        # ratios within a round (the same process, seconds apart): load cancels out
+        r["render_x"] = r["render_ms"] / r["raw_render_ms"]
+        r["step_x"] = r["step_ms"] / r["floor_ms"]
+        r["bare_x"] = r["bare_ms"] / phys if phys > 0 else math.nan
+        per_round.append(r)
     out: dict[str, Any] = {k: statistics.median(r[k] for r in per_round) for k in per_round[0]}
-    out["render_x"] = out["render_ms"] / out["raw_render_ms"]
-    out["step_x"] = out["step_ms"] / out["floor_ms"]
-    out["bare_x"] = out["bare_ms"] / out["phys_ms"] if out["phys_ms"] > 0 else math.nan
     out["peak_mib"] = max(p["hwm_kib"] for p in parts) / 1024
     out["import_mib"] = max(p["base_kib"] for p in parts) / 1024
     out["rounds"] = len(parts)
@@ -544,7 +550,7 @@ step: mean ms of env.step on the split's official config (physics, observation, 
 bare x: a step with rendering off against the raw mj_step substeps alone
 MiB peak: VmHWM of the process holding one env (interpreter and imports included)
 ! a goal missed: render and step <= {render}x, < {ms:.0f} ms per step at the split's size
-  (marked on the step), peak < {mib:.0f} MiB. Figures: medians over the rounds."""
+  (marked on the step), peak < {mib:.0f} MiB. Figures and ratios: medians over the rounds."""
 
 
 def main() -> int:

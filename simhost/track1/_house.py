@@ -169,7 +169,7 @@ class House:
     def _move(self, forward: float, turn: float) -> ActionResult:
         cfg, sim = self.config, self.sim
         df, dth = forward * cfg.max_forward, turn * cfg.max_turn
-        x0, y0, th0 = (float(v) for v in sim.data.qpos[sim.robot_qpos])
+        x0, y0, th0 = sim.robot_joints()
         th1 = th0 + dth
         x1, y1 = x0 + df * math.cos(th1), y0 + df * math.sin(th1)
         plan: list[tuple[float, float, float]] = []
@@ -187,7 +187,7 @@ class House:
             if sim.step(self.world.held):
                 collided = True
                 break
-            last = tuple(float(v) for v in sim.data.qpos[sim.robot_qpos])  # type: ignore[assignment]
+            last = sim.robot_joints()
         if collided:
             sim.set_robot_pose(*last)
             if self.world.held >= 0:

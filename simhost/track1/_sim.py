@@ -110,6 +110,14 @@ class HouseSim:
         self._lid_rgba = {fid: m.geom_rgba[g].copy() for fid, g in self.lid_drawn.items()}
         self.ctrl_lo = m.actuator_ctrlrange[:, 0].copy()
         self.ctrl_hi = m.actuator_ctrlrange[:, 1].copy()
+        self._lo: list[float] = self.ctrl_lo.tolist()
+        self._hi: list[float] = self.ctrl_hi.tolist()
+        """The ranges as Python floats: the clip of every substep's controls, without numpy
+        scalars (the same doubles)."""
+        qx, qy, qyaw = (int(i) for i in self.robot_qpos)
+        self._robot_qpos = (qx, qy, qyaw)
+        ax, ay, ayaw = (int(i) for i in self.robot_act)
+        self._robot_act = (ax, ay, ayaw)
         self._renderer: mujoco.Renderer | None = None
         self._segment_instance = np.zeros(0, dtype=np.int32)
         self._cull_slot = np.zeros(0, dtype=np.int64)
@@ -191,8 +199,13 @@ class HouseSim:
     # ----------------------------------------------------------------- robot
     def robot_pose(self) -> tuple[float, float, float]:
         """(x, y, yaw) with yaw wrapped to [-pi, pi]."""
-        x, y, yaw = (float(v) for v in self.data.qpos[self.robot_qpos])
+        x, y, yaw = self.robot_joints()
         return (x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
+
+    def robot_joints(self) -> tuple[float, float, float]:
+        """(x, y, yaw) of the base's joints as they are (yaw not wrapped)."""
+        q, (i, j, k) = self.data.qpos, self._robot_qpos
+        return (float(q[i]), float(q[j]), float(q[k]))
 
     def set_robot_pose(self, x: float, y: float, yaw: float) -> None:
         """Teleport the robot (zero velocity, controllers aimed at the pose)."""
@@ -204,8 +217,10 @@ class HouseSim:
 
     def set_robot_ctrl(self, x: float, y: float, yaw: float) -> None:
         """Aim the base's position controllers."""
-        for k, v in enumerate((x, y, yaw)):
-            self.set_ctrl(int(self.robot_act[k]), v)
+        i, j, k = self._robot_act
+        self.set_ctrl(i, x)
+        self.set_ctrl(j, y)
+        self.set_ctrl(k, yaw)
 
     def wrap_yaw(self) -> None:
         """Bring the yaw joint back into [-pi, pi] (same physical pose)."""
@@ -231,7 +246,7 @@ class HouseSim:
         """The only way a control reaches MuJoCo: finite, clipped to the actuator's range."""
         if not math.isfinite(value):
             raise ValueError(f"non-finite control {value!r} for actuator {actuator}")
-        self.data.ctrl[actuator] = min(max(value, self.ctrl_lo[actuator]), self.ctrl_hi[actuator])
+        self.data.ctrl[actuator] = min(max(value, self._lo[actuator]), self._hi[actuator])
 
     def robot_in_contact(self) -> bool:
         """True when the robot's base touches a wall, a door or furniture."""

@@ -404,9 +404,9 @@ class HouseSim:
         mujoco.mjr_readPixels(self._seg, None, rect, context)
         rgb = np.flipud(self._rgb).copy()
         depth = _metric_depth(np.flipud(self._zbuf), self.model)
-        seg = np.flipud(self._seg).astype(np.int32)
-        segid = seg[:, :, 0] + (seg[:, :, 1] << 8) + (seg[:, :, 2] << 16)
-        return rgb, depth, self._segment_table(scene)[segid]
+        seg = self._seg.astype(np.int32)[::-1]
+        segid = seg[:, :, 0] | (seg[:, :, 1] << 8) | (seg[:, :, 2] << 16)
+        return rgb, depth, np.take(self._segment_table(scene), segid)
 
     def _segment_table(self, scene: mujoco.MjvScene) -> np.ndarray:
         """Instance id by segmentation colour (scene geom index + 1; 0: background)."""

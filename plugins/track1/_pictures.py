@@ -28,6 +28,8 @@ STAGE_COLOURS = {"exploration": (30, 90, 220), "planning": (120, 120, 120),
                  "execution": (240, 120, 0)}
 Colour = tuple[int, int, int]
 _LINE = 14  # pixels per line of size-2 text
+PREVIEW_CAMERA = (256, 192)
+"""(width, height) of the preview's camera frame on a split whose robot has no camera."""
 
 
 class _Overlay:
@@ -129,10 +131,13 @@ def _side_by_side(left: np.ndarray, right: np.ndarray) -> np.ndarray:
 def preview(spec: Track1Scenario, seed: int, split: str, out_dir: str | Path) -> list[Path]:
     """A scenario's preview (``spec``, made from ``seed`` on ``split``): the top-down map
     (the goals marked) beside the robot's first camera frame, titled with the split, the
-    seed and the instruction. Returns its path."""
+    seed and the instruction. The frame is the split's own size, pixel for pixel what the
+    agent gets (a split without a camera, ``dev``: ``PREVIEW_CAMERA``). Returns its path."""
     from simhost.track1 import HouseEnv, render_topdown, write_png
 
-    env = HouseEnv(split=spec.split, render_rgbd=True, image_size=(320, 240), field_of_view=360.0)
+    sensing = spec.split.config
+    size = sensing.image_size if sensing.render_rgbd else PREVIEW_CAMERA
+    env = HouseEnv(split=spec.split, render_rgbd=True, image_size=size, field_of_view=360.0)
     try:
         env.reset(seed=seed)
         x, y, _ = env.layout.start
@@ -148,7 +153,8 @@ def preview(spec: Track1Scenario, seed: int, split: str, out_dir: str | Path) ->
     wrap = max(20, picture.shape[1] // 8 - 2)
     title = [f"TRACK1 {split} seed {seed}: preview ({spec.rooms} rooms, {exc})",
              *textwrap.wrap(f"task: {spec.task.text}", wrap),
-             "left: the house from above. right: the first camera frame"]
+             f"left: the house from above. right: the first camera frame, {size[0]}x{size[1]}"
+             + ("" if sensing.render_rgbd else f" (the {split} split has no camera)")]
     picture = _framed(picture, title, _legend())
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

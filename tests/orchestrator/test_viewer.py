@@ -415,6 +415,7 @@ def test_a_track1_episode_page(track1_episode: Path, browser: Browser, shots: Pa
     print(f"\nTrack 1 episode page at 640x480: {size / 2**20:.2f} MiB")
     assert size < PAGE_LIMIT
     text = page.read_text()
+    assert "data:image/jpeg;base64," in text  # textured RGB frames go as JPEG thumbnails
     assert not _leaks(_hidden_values(track1_episode), text)
     assert not browser.open(page.as_uri())
     got = browser.evaluate("[document.querySelectorAll('#map-svg image').length,"

@@ -171,7 +171,10 @@ def _episode(
     return out
 
 
-@pytest.mark.parametrize(("split", "size"), [("standard", (128, 96)), ("challenge", (256, 192))])
+@pytest.mark.parametrize(
+    ("split", "size"),
+    [("standard", (128, 96)), ("challenge", (256, 192)), ("standard", (160, 48))],
+)
 def test_optimized_step_and_render_match_the_plain_path(split: str, size: tuple[int, int]) -> None:
     ours = _episode(False, split, size)
     ref = _episode(True, split, size)

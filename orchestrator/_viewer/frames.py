@@ -5,8 +5,8 @@ page carries thumbnails at most ``THUMB_WIDTH`` pixels wide (a wider frame is sc
 to exactly that width, whatever the camera's resolution: 96x72 stays as it is, 256x192
 shows at 192x144, 640x480 too), PNG with the "up" filter, as ``data:`` URIs, within a byte
 budget: frames are thinned evenly until they fit, so a page stays under 2 MB at any
-resolution. RGB goes as JPEG where that is smaller (``jpeg``: a textured frame at 192x144
-is a tenth of its PNG), so a textured episode keeps about as many frames as a flat-shaded
+resolution. RGB goes as JPEG (Pillow's encoder) where that is smaller (a textured frame at
+192x144 is a tenth of its PNG), so a textured episode keeps about as many frames as a flat-shaded
 one; depth (grey, smooth) and segmentation (labels: exact) stay PNG.
 """
 
@@ -18,8 +18,6 @@ import zlib
 from dataclasses import dataclass
 
 import numpy as np
-
-from orchestrator._viewer.jpeg import encode_jpeg
 
 #: Widest thumbnail on a page, in pixels.
 THUMB_WIDTH = 192
@@ -135,6 +133,18 @@ def _area_weights(n_in: int, n_out: int) -> np.ndarray:
 
 def data_uri(data: bytes, mime: str = "image/png") -> str:
     return f"data:{mime};base64," + base64.b64encode(data).decode()
+
+
+def encode_jpeg(img: np.ndarray, quality: int) -> bytes:
+    """A baseline JPEG of an HxWx3 uint8 picture (Pillow)."""
+    import io
+
+    from PIL import Image
+
+    out = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(img[:, :, :3], np.uint8), "RGB").save(
+        out, format="JPEG", quality=quality)
+    return out.getvalue()
 
 
 def compact_rgb(img: np.ndarray) -> tuple[bytes, str]:

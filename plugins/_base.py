@@ -41,6 +41,7 @@ from schemas import (
 from schemas._io import ignored_note
 from schemas._result import EpisodeStatus
 from simhost._episode import EpisodeOutcome, StageSpec, TrackEpisode
+from simhost._records import ScenarioRecord
 
 #: A track's hidden-scenario model.
 ScenarioT = TypeVar("ScenarioT", bound=BaseModel)
@@ -224,11 +225,12 @@ class TrackPlugin(ABC, Generic[ScenarioT, OutcomeT]):
         return Scenario(track=self.name, split=split, seed=seed, params=params,
                         hidden=self.scenario_model.model_validate(params))
 
-    def hidden(self, scenario: Scenario[Any]) -> ScenarioT:
+    def hidden(self, scenario: Scenario[Any] | ScenarioRecord) -> ScenarioT:
         """The typed hidden scenario: ``scenario.hidden``, else its ``params`` read back (a
-        scenario rebuilt from an episode's log)."""
-        if isinstance(scenario.hidden, self.scenario_model):
-            return scenario.hidden
+        scenario rebuilt from an episode's log, or the log's own ``ScenarioRecord``)."""
+        got = getattr(scenario, "hidden", None)
+        if isinstance(got, self.scenario_model):
+            return got
         return self.scenario_model.model_validate(scenario.params)
 
     def outcome_of(self, data: ScoringInput[ScenarioT, Any]) -> OutcomeT | None:

@@ -366,10 +366,10 @@ def _map(folder: Path, log: _Log, view: EpisodeView) -> None:
 
 
 def _house(scenario: ScenarioRecord, view: EpisodeView) -> None:
-    from plugins.track1 import Track1Scenario
+    from plugins.track1 import Track1
     from simhost.track1 import TOPDOWN_MARGIN, TOPDOWN_SCALE, generate_house, render_topdown
 
-    spec = Track1Scenario.model_validate(scenario.params)
+    spec = Track1().hidden(scenario)
     layout = generate_house(scenario.seed, params=spec.split.params)
     if view.organizer:
         img = render_topdown(layout)

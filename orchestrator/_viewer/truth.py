@@ -27,10 +27,10 @@ def _listed(label: str, items: list[str]) -> list[str]:
 
 def track1_differences(scenario: ScenarioRecord, model: WorldModel) -> list[str]:
     """What ``model`` (a world_model.json) gets wrong about the scenario's house."""
-    from plugins.track1 import Track1Scenario
+    from plugins.track1 import Track1
     from simhost.track1 import generate_house, initial_ground_truth
 
-    spec = Track1Scenario.model_validate(scenario.params)
+    spec = Track1().hidden(scenario)
     gt = initial_ground_truth(generate_house(scenario.seed, params=spec.split.params))
     out: list[str] = []
 

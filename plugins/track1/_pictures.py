@@ -182,7 +182,9 @@ def trajectory_png(episode_dir: str | Path) -> Path:
     scenario, poses, total = log.scenario, log.poses, log.total
     if scenario.track != "track1":
         raise ValueError(f"{mcap} is a {scenario.track!r} episode, not track1")
-    spec = Track1Scenario.model_validate(scenario.params)
+    from plugins.track1._track import Track1
+
+    spec = Track1().hidden(scenario)
     layout = generate_house(scenario.seed, params=spec.split.params)
     img = render_topdown(layout)
     overlay = _Overlay(img, layout.extent[1])

@@ -160,12 +160,19 @@ def attempt_png(
     if (demo / "manifest.json").is_file():
         _draw(demo, attempt_xyz, out, title)
         return out
-    hidden = Track2Scenario.model_validate(scenario.params)
+    hidden = _hidden(scenario)
     with tempfile.TemporaryDirectory() as tmp:
         write_demo_packet(Path(tmp) / DEMO_FOLDER, hidden.source, seed=hidden.demo_seed,
                           config=hidden.bench, frames=hidden.demo_frames)
         _draw(Path(tmp) / DEMO_FOLDER, attempt_xyz, out, title)
     return out
+
+
+def _hidden(scenario: Any) -> Track2Scenario:
+    """The typed hidden scenario (the plugin's one reader of its JSON)."""
+    from plugins.track2._track import Track2
+
+    return Track2().hidden(scenario)
 
 
 def preview_png(scenario: Any, out: Path) -> Path:
@@ -176,7 +183,7 @@ def preview_png(scenario: Any, out: Path) -> Path:
     from simhost.track2._picture import ATTEMPT_RGB, DEMO_RGB, INK, PAPER, _resize
     from simhost.track2._raster import Canvas
 
-    hidden = Track2Scenario.model_validate(scenario.params)
+    hidden = _hidden(scenario)
     shots, rows = [], []
     for params in (hidden.source, hidden.instance):
         env = BenchEnv(params, config=hidden.bench, render_mode="rgb_array",

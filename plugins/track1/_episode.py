@@ -12,7 +12,10 @@ tool became unusable). The controlled exception is ``_exceptions.ControlledExcep
 
 Observation: every ``HouseEnv`` array as a tensor (int8 flags as uint8); JSON data:
 ``detections`` (the detection rows as a JSON list), ``room_name`` (the type of ``room``,
-empty when ``room`` is -1) and ``action_result``.
+empty when ``room`` is -1) and ``action_result``. A split without a detector (``vision``)
+leaves out the ``det_*`` tensors, ``detections`` and (when its config says so) the
+``segmentation`` image; its actions name what they act on by a pixel of the last frame
+(``target_px``, ``tool_px``), which the env resolves through the segmentation it keeps.
 """
 
 from __future__ import annotations
@@ -79,21 +82,39 @@ _OBS_TEXT = {
 }
 
 
-def _action_spec() -> tuple[FieldSpec, ...]:
+def _action_spec(config: Any = None) -> tuple[FieldSpec, ...]:
+    """The action fields; ``config`` (a ``HouseEnvConfig``) with ``actions_by="pixel"``:
+    ``target_px``/``tool_px`` instead of the ids."""
     from simhost.track1 import MAX_IDS, PRIMITIVES
 
-    return (
+    common = (
         FieldSpec(name="primitive", dtype="int32", choices=PRIMITIVES,
                   description="the primitive, by index or name"),
         FieldSpec(name="move", dtype="float32", shape=(2,), low=-1.0, high=1.0,
                   description="move: [forward, turn]: turn by turn × 45° (counter-clockwise), "
                   "then drive forward × 0.5 m"),
-        FieldSpec(name="target", dtype="int32", low=0, high=MAX_IDS - 1,
-                  description="open/close/pick/use: the instance acted on (it must be in "
-                  "view and in reach); place: the receptacle"),
-        FieldSpec(name="tool", dtype="int32", low=0, high=MAX_IDS - 1,
-                  description="use: the held tool"),
     )
+    if config is not None and config.actions_by == "pixel":
+        w, h = config.image_size
+        where = (f"a pixel [u, v] (column 0..{w - 1} from the left, row 0..{h - 1} from the "
+                 "top) of the last camera frame received")
+        return (*common,
+                FieldSpec(name="target_px", dtype="int32", shape=(2,), low=0.0,
+                          high=float(max(w, h) - 1),
+                          description=f"open/close/pick/use: the instance acted on, as {where} "
+                          "(this split takes no ids); the thing under it must be in view and "
+                          "in reach; place: the receptacle. A pixel on no instance (a wall, "
+                          "the floor) fails with 'nothing_there'"),
+                FieldSpec(name="tool_px", dtype="int32", shape=(2,), low=0.0,
+                          high=float(max(w, h) - 1),
+                          description=f"use: the held tool, as {where}; absent: the held "
+                          "item"))
+    return (*common,
+            FieldSpec(name="target", dtype="int32", low=0, high=MAX_IDS - 1,
+                      description="open/close/pick/use: the instance acted on (it must be in "
+                      "view and in reach); place: the receptacle"),
+            FieldSpec(name="tool", dtype="int32", low=0, high=MAX_IDS - 1,
+                      description="use: the held tool"))
 
 
 def _observation_spec(env: Any) -> tuple[FieldSpec, ...]:
@@ -110,10 +131,11 @@ def _observation_spec(env: Any) -> tuple[FieldSpec, ...]:
         out.append(FieldSpec(name=name, dtype=dtype, shape=tuple(box.shape),
                              low=float(np.min(box.low)), high=float(np.max(box.high)),
                              tensor=True, description=text))
+    if env.config.detections:
+        out.append(FieldSpec(name="detections", dtype="json", description="the detection rows "
+                             "as a JSON list of {id, kind, category, colour, rel_pos: [x ahead, "
+                             "y left] (m), state}, with names instead of indices"))
     out += [
-        FieldSpec(name="detections", dtype="json", description="the detection rows as a JSON "
-                  "list of {id, kind, category, colour, rel_pos: [x ahead, y left] (m), "
-                  "state}, with names instead of indices"),
         FieldSpec(name="room_name", dtype="str",
                   description="the type of `room` (" + ", ".join(ROOM_TYPES) + "); empty "
                   "when `room` is -1"),
@@ -135,7 +157,8 @@ class Track1Episode(TrackEpisode):
         self.task = self.spec.task
         self.env = HouseEnv(split=self.spec.split)
         self.observation_spec = _observation_spec(self.env)
-        self.action_spec = _action_spec()
+        self.action_spec = _action_spec(self.env.config)
+        self.by_pixel = self.env.config.actions_by == "pixel"
         self.exception = ControlledException(
             self.spec.exception, self.task, scenario.seed,
             hidden=not self.spec.split.config.reveal_exceptions)
@@ -195,6 +218,8 @@ class Track1Episode(TrackEpisode):
                 "action_result": {"ok": r.ok, "reason": r.reason, "primitive": r.primitive,
                                   "collided": bool(r.collided)},
             }
+        if not self.env.config.detections:
+            del data["detections"]
         if self._ready:
             self.shown.observe(self.steps, data, tensors)
         return Observation(tensors=tensors, data=data)
@@ -275,11 +300,20 @@ class Track1Episode(TrackEpisode):
                                 "an end_stage request")
         x0, y0, yaw0 = self.house.robot_pose
         move = action.get("move")
-        self._obs, _, terminated, _, info = self.env.step_typed({
-            "primitive": PRIMITIVES.index(primitive),
-            "move": np.zeros(2, np.float32) if move is None else move,
-            "target": int(action.get("target", 0)), "tool": int(action.get("tool", 0))})
+        sent: dict[str, Any] = {"primitive": PRIMITIVES.index(primitive),
+                                "move": np.zeros(2, np.float32) if move is None else move}
+        if self.by_pixel:
+            sent.update({k: action[k] for k in ("target_px", "tool_px", "target", "tool")
+                         if k in action})
+        else:
+            sent.update(target=int(action.get("target", 0)), tool=int(action.get("tool", 0)))
+        self._obs, _, terminated, _, info = self.env.step_typed(sent)
         self._info = info
+        acted = action
+        if self.by_pixel:  # the rules that follow read what the pixels named
+            target, tool = self.env.resolved
+            acted = {**action, "target": -1 if target is None else target,
+                     "tool": -1 if tool is None else tool}
         x1, y1, yaw1 = self.house.robot_pose
         result = info.action_result
         moved = math.hypot(x1 - x0, y1 - y0)
@@ -294,7 +328,7 @@ class Track1Episode(TrackEpisode):
             if (primitive == "noop" or not result.ok
                     or (primitive == "move" and moved < 0.02 and turned < 0.02)):
                 self.redundant += 1
-            events += self._reobserve(self.exception.on_step(self, action, result))
+            events += self._reobserve(self.exception.on_step(self, acted, result))
             events += self._progress()
         ok = bool(result.ok)
         self.shown.action(self.steps, action, {"ok": result.ok, "reason": result.reason,
@@ -330,7 +364,10 @@ class Track1Episode(TrackEpisode):
 
     # ---------------------------------------------------------------- what the agent sees
     def perceived_ids(self) -> set[int]:
-        """Ids in the agent's detections at this step."""
+        """Ids in the agent's detections at this step; without a detector (``vision``),
+        the instances its camera frame shows."""
+        if not self.env.config.detections:
+            return self.env.frame_instances() if self._ready else set()
         return set() if self._info is None else {int(d.id) for d in self._info.detections}
 
     def _reobserve(self, events: list[Mapping[str, Any]]) -> list[Mapping[str, Any]]:

@@ -7,7 +7,10 @@ Stages (Table II, official budgets; a campaign's ``time_scale`` and step caps sc
 instructions, an exception in about half the episodes, weight 0.6) and ``challenge`` (6–8
 rooms with more clutter, two or three clauses, always an exception, weight 0.4), as in
 equation (2); ``dev`` is the public getting-started level (exact all-round perception,
-one-clause templates, exceptions that show themselves).
+one-clause templates, exceptions that show themselves). ``vision`` (an extra split, outside
+the final) is ``standard`` without a detector: RGB-D, odometry, the range scan and the room
+sign; no detections and no segmentation image; actions name what they act on by a pixel of
+the last frame.
 Files: ``world_model.json`` and ``episode_log.jsonl``, both required. Score: equation (1),
 see ``_score``. Leaderboard: Table IV's columns; ties by task success, model verification,
 recovery, invalid actions, runtime.
@@ -17,7 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from plugins._base import EPISODE_LOG, Column, FileRule, Scenario, ScoringInput, TrackPlugin
 from plugins._errors import PluginError
@@ -42,6 +45,12 @@ class Track1(TrackPlugin[Track1Scenario, Track1Outcome]):
         "challenge": (0.4, {"exception_probability": 1.0, "goals": [2, 3]}),
         "dev": (1.0, {"exception_probability": 0.5, "goals": [1, 1], "language": "templates",
                       "step_budgets": False}),
+    }
+    extra_splits = ("vision",)
+    #: Scenario parameters of the extra splits: ``vision`` has the standard split's tasks,
+    #: exceptions and budgets (its houses and sensing: ``simhost.track1.SPLITS``).
+    extra_params: ClassVar[Mapping[str, Mapping[str, Any]]] = {
+        "vision": splits["standard"][1],
     }
     scenario_model = Track1Scenario
     outcome_model = Track1Outcome
@@ -79,9 +88,11 @@ class Track1(TrackPlugin[Track1Scenario, Track1Outcome]):
 
     def make_scenario(self, *, seed: int, split: str, params: Mapping[str, Any],
                       index: int | None = None) -> Scenario[Track1Scenario]:
-        if split not in self.splits:
-            raise PluginError(f"track1: unknown split {split!r}; one of {sorted(self.splits)}")
-        merged = {**self.splits[split][1], **params}
+        if split not in self.split_names():
+            raise PluginError(f"track1: unknown split {split!r}; one of "
+                              f"{sorted(self.split_names())}")
+        own = self.splits[split][1] if split in self.splits else self.extra_params[split]
+        merged = {**own, **params}
         return self.new_scenario(seed=seed, split=split,
                                  hidden=build_scenario(seed, split, merged, index))
 

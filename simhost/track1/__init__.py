@@ -3,8 +3,8 @@
 Light on import: the generator, layouts, tasks, vocabularies and top-down pictures need only
 numpy and pydantic. ``HouseEnv``, ``House`` and ``HouseSim`` load MuJoCo (and set
 ``MUJOCO_GL=egl`` unless already set) on first access. Importing this package registers
-``eagc/HouseDev-v0``, ``eagc/House-v0`` and ``eagc/HouseChallenge-v0`` (one per split of
-``SPLITS``) with Gymnasium.
+``eagc/HouseDev-v0``, ``eagc/House-v0``, ``eagc/HouseChallenge-v0`` and
+``eagc/HouseVision-v0`` (one per split of ``SPLITS``) with Gymnasium.
 
     >>> from simhost.track1 import HouseEnv, make_action
     >>> env = HouseEnv()
@@ -16,7 +16,16 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ._actions import PRIMITIVES, REASONS, ActionResult, make_action, parse_action
+from ._actions import (
+    PRIMITIVES,
+    REASONS,
+    ActionResult,
+    Pixel,
+    make_action,
+    make_pixel_action,
+    parse_action,
+    parse_pixel_action,
+)
 from ._catalogue import (
     AFFORDANCE_EFFECTS,
     AFFORDANCES,
@@ -46,7 +55,14 @@ from ._generate import generate_house
 from ._graph import doors_on_path, is_two_edge_connected, shortest_room_path
 from ._info import HouseInfo
 from ._layout import Door, Furniture, HouseLayout, HouseParams, Item, Room, Wall
-from ._register import CHALLENGE_ENV_ID, DEV_ENV_ID, ENV_ID, ENV_IDS, register_envs
+from ._register import (
+    CHALLENGE_ENV_ID,
+    DEV_ENV_ID,
+    ENV_ID,
+    ENV_IDS,
+    VISION_ENV_ID,
+    register_envs,
+)
 from ._splits import SPLITS, HouseSplit, house_split
 from ._task import HouseTask
 from ._topdown import (
@@ -115,6 +131,7 @@ __all__ = [
     "TOPDOWN_LEGEND",
     "TOPDOWN_MARGIN",
     "TOPDOWN_SCALE",
+    "VISION_ENV_ID",
     "ActionResult",
     "AffordanceTruth",
     "ConfigError",
@@ -140,6 +157,7 @@ __all__ = [
     "LayoutError",
     "ObjectTruth",
     "PerturbationError",
+    "Pixel",
     "RobotTruth",
     "Room",
     "RoomFurniture",
@@ -157,7 +175,9 @@ __all__ = [
     "initial_ground_truth",
     "is_two_edge_connected",
     "make_action",
+    "make_pixel_action",
     "parse_action",
+    "parse_pixel_action",
     "register_envs",
     "render_topdown",
     "shortest_room_path",

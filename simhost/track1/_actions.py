@@ -36,8 +36,15 @@ REASONS: tuple[str, ...] = (
     "not_applicable",
     "lacks_affordance",
     "no_effect",
+    "nothing_there",
+    "ids_not_accepted",
 )
-"""Every failure reason ``info["action_result"]["reason"]`` may carry."""
+"""Every failure reason ``info["action_result"]["reason"]`` may carry (``nothing_there``:
+a pixel on no instance, e.g. a wall or the floor; ``ids_not_accepted``: an id where the
+split takes pixels)."""
+
+Pixel = tuple[int, int]
+"""A pixel ``(u, v)`` of the camera frame: column from the left, row from the top."""
 
 
 @dataclass(frozen=True)
@@ -74,6 +81,20 @@ def make_action(
     }
 
 
+def make_pixel_action(
+    primitive: str, *, forward: float = 0.0, turn: float = 0.0,
+    target_px: Pixel | None = None, tool_px: Pixel | None = None,
+) -> dict[str, Any]:
+    """An action dict for a ``HouseEnv`` that takes pixels (``actions_by="pixel"``), e.g.
+    ``make_pixel_action("pick", target_px=(120, 140))``; a ``None`` pixel is left out."""
+    action = make_action(primitive, forward=forward, turn=turn)
+    del action["target"], action["tool"]
+    for key, px in (("target_px", target_px), ("tool_px", tool_px)):
+        if px is not None:
+            action[key] = np.array(px, dtype=np.int32)
+    return action
+
+
 def _as_int(value: Any) -> int | None:
     try:
         arr = np.asarray(value)
@@ -84,11 +105,50 @@ def _as_int(value: Any) -> int | None:
         return None
 
 
-def parse_action(action: Any) -> tuple[str, float, float, int, int] | ActionResult:
+def _as_pixel(value: Any, size: tuple[int, int]) -> Pixel | None:
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):
+        return None
+    if arr.shape != (2,) or arr.dtype.kind not in "iuf":
+        return None
+    if arr.dtype.kind == "f" and not (np.all(np.isfinite(arr)) and np.all(arr == np.round(arr))):
+        return None
+    u, v = (int(x) for x in arr)
+    width, height = size
+    return (u, v) if 0 <= u < width and 0 <= v < height else None
+
+
+def parse_pixel_action(
+    action: Any, size: tuple[int, int]
+) -> tuple[str, float, float, Pixel | None, Pixel | None] | ActionResult:
+    """``parse_action`` for a split that takes pixels: ``target_px`` and ``tool_px`` (each
+    ``[u, v]`` within ``size`` = (width, height), or absent: None) instead of ids. An action
+    that carries ``target`` or ``tool`` is refused (``ids_not_accepted``)."""
+    parsed = parse_action(action, ids=False)
+    if isinstance(parsed, ActionResult):
+        return parsed
+    primitive, forward, turn, _, _ = parsed
+    assert isinstance(action, Mapping)
+    if "target" in action or "tool" in action:
+        return ActionResult(primitive, False, "ids_not_accepted")
+    pixels: list[Pixel | None] = []
+    for key in ("target_px", "tool_px"):
+        px = None if action.get(key) is None else _as_pixel(action[key], size)
+        if action.get(key) is not None and px is None:
+            return ActionResult(primitive, False, "invalid_action")
+        pixels.append(px)
+    return primitive, forward, turn, pixels[0], pixels[1]
+
+
+def parse_action(
+    action: Any, *, ids: bool = True
+) -> tuple[str, float, float, int, int] | ActionResult:
     """Validate an action; a bad one comes back as a failed ``ActionResult``.
 
     Non-finite ``move`` values are refused (``non_finite_action``) whatever the primitive;
-    finite ones are clipped to [-1, 1].
+    finite ones are clipped to [-1, 1]. ``ids=False``: ``target`` and ``tool`` are not read
+    (both come back 0).
     """
     if not isinstance(action, Mapping):
         return ActionResult("invalid", False, "invalid_action")
@@ -105,7 +165,10 @@ def parse_action(action: Any) -> tuple[str, float, float, int, int] | ActionResu
         return ActionResult(primitive, False, "invalid_action")
     if not np.all(np.isfinite(move)):
         return ActionResult(primitive, False, "non_finite_action")
-    target, tool = _as_int(action.get("target", 0)), _as_int(action.get("tool", 0))
+    if not ids:
+        target, tool = 0, 0
+    else:
+        target, tool = _as_int(action.get("target", 0)), _as_int(action.get("tool", 0))
     if target is None or tool is None or not (0 <= target < MAX_IDS and 0 <= tool < MAX_IDS):
         return ActionResult(primitive, False, "invalid_action")
     forward, turn = (float(v) for v in np.clip(move, -1.0, 1.0))

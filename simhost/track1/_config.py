@@ -16,7 +16,7 @@ import difflib
 import math
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ._errors import ConfigError
 
@@ -88,8 +88,27 @@ class HouseEnvConfig(BaseModel):
     """Add ``rgb``, ``depth`` and ``segmentation`` images from the robot's eye camera."""
     image_size: tuple[int, int] = (128, 96)
     """(width, height) of the images."""
+    detections: bool = True
+    """False: no detector (the ``vision`` split): the ``det_*`` arrays are left out of the
+    observation and ``info.detections`` is empty."""
+    segmentation: bool = True
+    """False: the ``segmentation`` image is left out of the observation; it is still
+    rendered with every frame and kept host-side, to resolve actions by pixel."""
+    actions_by: Literal["id", "pixel"] = "id"
+    """What names the thing an action acts on. ``id``: ``target``/``tool`` instance ids.
+    ``pixel``: ``target_px``/``tool_px``, a pixel ``[u, v]`` (column, row) of the last
+    frame observed; the instance under it is acted on under the same rules (in view, in
+    reach); a pixel on nothing fails with ``nothing_there``, an id with
+    ``ids_not_accepted``. Needs ``render_rgbd``."""
     failure_penalty: float = 0.01
     """Reward subtracted for a failed action when a task is set."""
+
+    @model_validator(mode="after")
+    def _pixels_need_frames(self) -> HouseEnvConfig:
+        if self.actions_by == "pixel" and not self.render_rgbd:
+            raise ValueError("actions_by='pixel' needs render_rgbd=True: a pixel names a "
+                             "point of the camera frame")
+        return self
 
     @property
     def exact(self) -> bool:

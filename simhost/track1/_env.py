@@ -9,7 +9,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ._actions import PRIMITIVES, ActionResult, parse_action
+from ._actions import PRIMITIVES, ActionResult, Pixel, parse_action, parse_pixel_action
 from ._catalogue import CATEGORIES, COLOURS, KINDS, MAX_IDS, MAX_ROOMS, ROOM_TYPES, STATES
 from ._config import HouseEnvConfig
 from ._generate import generate_house
@@ -24,6 +24,8 @@ from ._truth import HouseTruth
 _SEED_SPACE = 2**31 - 1
 _MAX_DEPTH = 100.0
 """Depth (m) reported where the camera sees nothing within the far plane."""
+_TARGETED = frozenset({"open", "close", "pick", "place", "use"})
+"""Primitives that act on a ``target``."""
 
 
 class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
@@ -38,6 +40,11 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         config: sensing, control and rendering options (replaces the split's); keyword
             ``options`` override fields (e.g. ``render_rgbd=True, image_size=(64, 48)``).
         render_mode: None or ``"rgb_array"`` (a top-down picture).
+
+    With ``actions_by="pixel"`` (the ``vision`` split) an action names what it acts on by a
+    pixel ``[u, v]`` of the last frame observed (``target_px``; ``tool_px``, absent: the
+    held item); the env resolves it through its own segmentation of that frame, kept even
+    when the observation leaves it out (``make_pixel_action``).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
@@ -63,15 +70,25 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         self.house: House | None = House(layout, self.config) if layout is not None else None
         self.task: HouseTask | None = None
         self._last = ActionResult("reset", True)
+        self._frame_ids: np.ndarray | None = None
+        self.resolved: tuple[int | None, int | None] = (None, None)
+        """Organizer-only: the ``(target, tool)`` ids the last pixel-addressed action named
+        (None where it named none or nothing); never part of the observation."""
         self.observation_space = self._observation_space()
-        self.action_space = spaces.Dict(
-            [
-                ("primitive", spaces.Discrete(len(PRIMITIVES))),
-                ("move", spaces.Box(-1.0, 1.0, (2,), np.float32)),
-                ("target", spaces.Discrete(MAX_IDS)),
-                ("tool", spaces.Discrete(MAX_IDS)),
-            ]
-        )
+        self.action_space = self._action_space()
+
+    def _action_space(self) -> spaces.Dict:
+        fields: list[tuple[str, spaces.Space[Any]]] = [
+            ("primitive", spaces.Discrete(len(PRIMITIVES))),
+            ("move", spaces.Box(-1.0, 1.0, (2,), np.float32)),
+        ]
+        if self.config.actions_by == "pixel":
+            w, h = self.config.image_size
+            fields += [("target_px", spaces.MultiDiscrete([w, h])),  # [u, v]
+                       ("tool_px", spaces.MultiDiscrete([w, h]))]
+        else:
+            fields += [("target", spaces.Discrete(MAX_IDS)), ("tool", spaces.Discrete(MAX_IDS))]
+        return spaces.Dict(fields)
 
     def _observation_space(self) -> spaces.Dict:
         cfg, k = self.config, self.config.max_detections
@@ -93,19 +110,23 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
             "held": ints(-1, MAX_IDS - 1, (1,)),
             "last_action_ok": ints(0, 1, (1,), np.int8),
             "collided": ints(0, 1, (1,), np.int8),
-            "det_mask": ints(0, 1, (k,), np.int8),
-            "det_id": ints(-1, MAX_IDS - 1, (k,)),
-            "det_kind": ints(-1, len(KINDS) - 1, (k,)),
-            "det_category": ints(-1, len(CATEGORIES) - 1, (k,)),
-            "det_colour": ints(-1, len(COLOURS) - 1, (k,)),
-            "det_state": ints(-1, len(STATES) - 1, (k,)),
-            "det_rel_pos": spaces.Box(-big, big, (k, 2), np.float32),
         }
+        if cfg.detections:
+            obs.update({
+                "det_mask": ints(0, 1, (k,), np.int8),
+                "det_id": ints(-1, MAX_IDS - 1, (k,)),
+                "det_kind": ints(-1, len(KINDS) - 1, (k,)),
+                "det_category": ints(-1, len(CATEGORIES) - 1, (k,)),
+                "det_colour": ints(-1, len(COLOURS) - 1, (k,)),
+                "det_state": ints(-1, len(STATES) - 1, (k,)),
+                "det_rel_pos": spaces.Box(-big, big, (k, 2), np.float32),
+            })
         if cfg.render_rgbd:
             w, h = cfg.image_size
             obs["rgb"] = spaces.Box(0, 255, (h, w, 3), np.uint8)
             obs["depth"] = spaces.Box(0.0, _MAX_DEPTH, (h, w), np.float32)
-            obs["segmentation"] = ints(-1, MAX_IDS - 1, (h, w))
+            if cfg.segmentation:
+                obs["segmentation"] = ints(-1, MAX_IDS - 1, (h, w))
         return spaces.Dict(list(obs.items()))
 
     # ----------------------------------------------------------------- gymnasium API
@@ -175,7 +196,7 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         """Run one primitive. A failed precondition changes nothing and says why in
         ``info.action_result``."""
         house = self._house()
-        parsed = parse_action(action)
+        parsed = parse_action(action) if self.config.actions_by == "id" else self._by_pixel(action)
         if isinstance(parsed, ActionResult):
             result = parsed
             house.world.steps += 1
@@ -192,6 +213,49 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
                 reward += 1.0
         terminated = result.primitive == "done" and result.ok
         return self._observation(), reward, terminated, False, self._info()
+
+    def _by_pixel(self, action: Any) -> tuple[str, float, float, int, int] | ActionResult:
+        """A pixel-addressed action with its pixels resolved to the instances under them in
+        the last frame (``target_px`` for the targeted primitives, ``tool_px`` for ``use``,
+        absent: the held item); a failed ``ActionResult`` when it names nothing."""
+        self.resolved = (None, None)
+        parsed = parse_pixel_action(action, self.config.image_size)
+        if isinstance(parsed, ActionResult):
+            return parsed
+        primitive, forward, turn, target_px, tool_px = parsed
+        if primitive not in _TARGETED:
+            return primitive, forward, turn, 0, 0
+        if target_px is None:
+            return ActionResult(primitive, False, "invalid_action")
+        target, tool = self.instance_at(target_px), self._house().world.held
+        if primitive == "use" and tool_px is not None:
+            tool = self.instance_at(tool_px)
+            if tool < 0:
+                return ActionResult(primitive, False, "nothing_there")
+        if target < 0:
+            return ActionResult(primitive, False, "nothing_there")
+        self.resolved = (target, tool if primitive == "use" else None)
+        return primitive, forward, turn, target, tool
+
+    def instance_at(self, pixel: Pixel) -> int:
+        """Organizer-only: the instance id under a pixel ``(u, v)`` of the last frame
+        observed (-1: nothing, e.g. a wall, the floor or the robot; also before the first
+        frame)."""
+        if self._frame_ids is None:
+            return -1
+        u, v = pixel
+        return int(self._frame_ids[v, u])
+
+    def last_segmentation(self) -> np.ndarray | None:
+        """Organizer-only: the instance id at each pixel of the last frame observed (-1:
+        none), kept whether or not the observation carries it; None without frames."""
+        return None if self._frame_ids is None else self._frame_ids.copy()
+
+    def frame_instances(self) -> set[int]:
+        """Organizer-only: the instance ids the last frame shows (empty without frames)."""
+        if self._frame_ids is None:
+            return set()
+        return {int(i) for i in np.unique(self._frame_ids) if i >= 0}
 
     def observe_typed(self) -> tuple[dict[str, np.ndarray], HouseInfo]:
         """The observation and info of the current state, without stepping (e.g. after a
@@ -214,9 +278,9 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         house, cfg, k = self._house(), self.config, self.config.max_detections
         x, y, yaw = house.odometry
         room = house.room_sign()
-        dets = house.detections()[:k]
+        dets = house.detections()[:k] if cfg.detections else []
         n = len(dets)
-        obs = {
+        obs: dict[str, np.ndarray] = {
             "odometry": np.array([x, y, yaw], dtype=np.float32),
             "range_scan": house.sim.range_scan(cfg.scan_rays, cfg.scan_range),
             "room": np.array([room], dtype=np.int32),
@@ -227,14 +291,17 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
             "held": np.array([house.world.held], dtype=np.int32),
             "last_action_ok": np.array([int(self._last.ok)], dtype=np.int8),
             "collided": np.array([int(self._last.collided)], dtype=np.int8),
-            "det_mask": np.zeros(k, np.int8),
-            "det_id": np.full(k, -1, np.int32),
-            "det_kind": np.full(k, -1, np.int32),
-            "det_category": np.full(k, -1, np.int32),
-            "det_colour": np.full(k, -1, np.int32),
-            "det_state": np.full(k, -1, np.int32),
-            "det_rel_pos": np.zeros((k, 2), np.float32),
         }
+        if cfg.detections:
+            obs.update({
+                "det_mask": np.zeros(k, np.int8),
+                "det_id": np.full(k, -1, np.int32),
+                "det_kind": np.full(k, -1, np.int32),
+                "det_category": np.full(k, -1, np.int32),
+                "det_colour": np.full(k, -1, np.int32),
+                "det_state": np.full(k, -1, np.int32),
+                "det_rel_pos": np.zeros((k, 2), np.float32),
+            })
         if n:
             obs["det_mask"][:n] = 1
             obs["det_id"][:n] = [d.id for d in dets]
@@ -246,8 +313,11 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
             obs["det_rel_pos"][:n] = np.clip([d.rel_pos for d in dets], -high, high)
         if cfg.render_rgbd:
             w, h = cfg.image_size
-            obs["rgb"], depth, obs["segmentation"] = house.sim.render_rgbd(w, h)
+            obs["rgb"], depth, segmentation = house.sim.render_rgbd(w, h)
+            if cfg.segmentation:
+                obs["segmentation"] = segmentation
             obs["depth"] = np.minimum(depth, np.float32(_MAX_DEPTH))  # no hit: the far plane
+            self._frame_ids = segmentation
         return obs
 
     def _info(self) -> HouseInfo:
@@ -255,7 +325,7 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
         room = house.room_sign()
         return HouseInfo(
             action_result=self._last,
-            detections=tuple(house.detections()),
+            detections=tuple(house.detections()) if self.config.detections else (),
             room=room,
             room_type=house.layout.rooms[room].type if room >= 0 else None,
             held=house.world.held,

@@ -15,6 +15,10 @@ sees what the evaluation shows it.
   odometry drift, the room read from a sign on entry, exceptions that show only through
   their effects; egocentric RGB-D with instance segmentation at 96x72.
 - ``challenge``: the same robot in 6-8 room houses with more clutter and look-alikes.
+- ``vision``: the standard split's houses and robot without a detector: RGB-D, odometry,
+  the range scan and the room sign; no ``det_*`` arrays and no ``segmentation`` image (the
+  host keeps its segmentation to itself). An action names what it acts on by a pixel of
+  the last frame (``target_px``, ``tool_px``), never by an id.
 """
 
 from __future__ import annotations
@@ -74,17 +78,22 @@ ROBOT_SENSING = HouseEnvConfig(
 high, 91 wide) of the earlier 96x72 images at the pixel count of a 224x224 vision model's
 input (49,152 vs 50,176 pixels): a team resizes or crops without losing the field of view."""
 
+VISION_SENSING = ROBOT_SENSING.model_copy(
+    update={"detections": False, "segmentation": False, "actions_by": "pixel"})
+"""The official robot with no detector: what it sees is pixels (``vision``)."""
+
 SPLITS: dict[str, HouseSplit] = {
     "dev": HouseSplit(name="dev", params=HouseParams.dev(), config=HouseEnvConfig()),
     "standard": HouseSplit(name="standard", params=HouseParams.standard(), config=ROBOT_SENSING),
     "challenge": HouseSplit(
         name="challenge", params=HouseParams.challenge(), config=ROBOT_SENSING
     ),
+    "vision": HouseSplit(name="vision", params=HouseParams.standard(), config=VISION_SENSING),
 }
 
 
 def house_split(name: str) -> HouseSplit:
-    """The preset of a split (``dev``, ``standard`` or ``challenge``)."""
+    """The preset of a split (``dev``, ``standard``, ``challenge`` or ``vision``)."""
     try:
         return SPLITS[name]
     except KeyError:

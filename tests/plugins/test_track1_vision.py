@@ -1,0 +1,205 @@
+"""Track 1's ``vision`` split through the real host: a ``SimHost`` serving a Track 1 episode
+on a unix socket (on a thread: it alone renders that episode), an agent on ``RemoteEnv``.
+The observation carries no detections and no segmentation; actions name what they act on by
+a pixel of the last frame, and meet the rules an id-addressed action meets. The test stands
+in for the agent's eyes with the host's own segmentation (``HouseEnv.last_segmentation``)
+and drives with the organizer's ``teleport_robot``."""
+
+from __future__ import annotations
+
+import math
+import secrets
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from plugins import load_track
+from plugins.track1 import EXPLORATION, Track1Episode
+from plugins.track1._track import Track1
+from simhost.track1 import PRIMITIVES, PerturbationError
+
+SEED = 20100
+
+
+def _episode(split: str, seed: int = SEED) -> Track1Episode:
+    plugin = load_track("track1")
+    ep = plugin.make_episode(plugin.make_scenario(seed=seed, split=split, params={}))
+    assert isinstance(ep, Track1Episode)
+    return ep
+
+
+def _pixel_of(ep: Track1Episode, entity: int) -> tuple[tuple[int, int] | None, int]:
+    """The pixel of ``entity`` nearest its mask's centroid in the last frame, and its area."""
+    seg = ep.env.last_segmentation()
+    assert seg is not None
+    vs, us = np.nonzero(seg == entity)
+    if not len(us):
+        return None, 0
+    k = int(np.argmin((us - us.mean()) ** 2 + (vs - vs.mean()) ** 2))
+    return (int(us[k]), int(vs[k])), len(us)
+
+
+def _poses() -> tuple[int, tuple[float, float, float], tuple[float, float, float]]:
+    """An object on an open surface, a pose in front of its furniture that reaches it and a
+    pose 2-2.5 m back on the same line that sees it (both with the object in the frame),
+    found in an episode of its own."""
+    ep = _episode("vision")
+    try:
+        ep.reset()
+        return _find_poses(ep)
+    finally:
+        ep.close()
+
+
+def _find_poses(ep: Track1Episode) -> tuple[int, tuple[float, float, float],
+                                            tuple[float, float, float]]:
+    truth = ep.env.ground_truth()
+    for obj in truth.objects:
+        rec = truth.receptacle(obj.receptacle)
+        if rec is None or rec.kind == "container":
+            continue
+        ax, ay, _ = rec.access
+        ox, oy = obj.position[0], obj.position[1]
+        yaw = math.atan2(oy - ay, ox - ax)
+        ep.env.teleport_robot(ax, ay, yaw)
+        ep.step(EXPLORATION, {"primitive": 0})
+        if _pixel_of(ep, obj.id)[1] < 30 or not ep.house.in_reach(obj.id):
+            continue
+        for d in (2.0, 2.25, 2.5):
+            far = (ox - d * math.cos(yaw), oy - d * math.sin(yaw), yaw)
+            try:
+                ep.env.teleport_robot(*far)
+            except PerturbationError:
+                continue
+            ep.step(EXPLORATION, {"primitive": 0})
+            if _pixel_of(ep, obj.id)[1] >= 10:
+                return obj.id, (ax, ay, yaw), far
+    raise AssertionError(f"seed {SEED}: no object seen from near and far")
+
+
+class _Served:
+    """A Track 1 episode served by a real ``SimHost`` on a thread, and its agent."""
+
+    def __init__(self, episode: Track1Episode, tmp: Path) -> None:
+        from schemas import unix_endpoint
+        from simhost import HostConfig, SimHost
+        from simhost.agent import RemoteEnv
+
+        track = load_track("track1")
+        sock = tmp / "sock" / "zenoh.sock"
+        sock.parent.mkdir()
+        endpoint = unix_endpoint(str(sock))
+        name = secrets.token_hex(8)
+        self.episode = episode
+        self.host = SimHost(episode, track.stages(), HostConfig(
+            episode=name, track=track.name, endpoints=(endpoint,), socket_path=sock,
+            startup_s=30.0))
+        self.host.open()
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=lambda: self.host.serve(self.stop, poll_s=0.02),
+                                       daemon=True)
+        self.thread.start()
+        self.agent = RemoteEnv(endpoint, name, timeout_s=60.0)
+
+    def close(self) -> None:
+        self.agent.close()
+        self.stop.set()
+        self.thread.join(10)
+        self.host.close()
+        self.episode.close()
+
+
+@pytest.fixture
+def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[_Served]:
+    s = _Served(_episode("vision"), tmp_path_factory.mktemp("v"))
+    yield s
+    s.close()
+
+
+def _pick(agent: Any, pixel: tuple[int, int]) -> Any:
+    return agent.step({"primitive": "pick", "target_px": list(pixel)})
+
+
+def test_vision_shows_pixels_and_takes_pixels_through_the_host(served: _Served) -> None:
+    from simhost.agent import HostError
+
+    agent, ep = served.agent, served.episode
+    obj, near, far = _poses()  # the test's eyes: the host's own segmentation
+    spec = agent.hello(agent="vision-test/1")
+    observed = {f.name for f in spec.observation_spec}
+    assert {"rgb", "depth", "odometry", "range_scan", "room", "room_name"} <= observed
+    assert not {n for n in observed if n.startswith("det_")}
+    assert "detections" not in observed and "segmentation" not in observed
+    acts = {f.name for f in spec.action_spec}
+    assert acts == {"primitive", "move", "target_px", "tool_px"}
+    ts = agent.reset()
+    assert "rgb" in ts.observation and ts.observation["rgb"].shape == (192, 256, 3)
+    assert not {k for k in ts.observation if k.startswith("det_")}
+    assert "detections" not in ts.observation and "segmentation" not in ts.observation
+
+    # An id is refused, and the refusal names the pixel field to use.
+    with pytest.raises(HostError) as refused:
+        agent.step({"primitive": "pick", "target": 3})
+    assert refused.value.code == "invalid_action" and "target_px" in str(refused.value)
+
+    # From too far: the pixel of the object gives the reason a pick by its id gets.
+    ep.env.teleport_robot(*far)
+    agent.step({"primitive": "noop"})
+    pixel, _ = _pixel_of(ep, obj)
+    assert pixel is not None
+    ts = _pick(agent, pixel)
+    assert ts.action is not None and not ts.action.ok
+    by_id = _episode("standard")
+    try:
+        by_id.reset()
+        by_id.env.teleport_robot(*far)
+        by_id.step(EXPLORATION, {"primitive": 0})
+        out = by_id.step(EXPLORATION, {"primitive": PRIMITIVES.index("pick"), "target": obj})
+        assert not out.action.ok
+        assert ts.action.reason == out.action.reason == "out_of_reach"
+    finally:
+        by_id.close()
+    assert ts.observation["held"][0] == -1
+
+    # From in front of it: its pixel picks it.
+    ep.env.teleport_robot(*near)
+    ts = agent.step({"primitive": "noop"})
+    seg = ep.env.last_segmentation()
+    assert seg is not None
+    pixel, _ = _pixel_of(ep, obj)
+    assert pixel is not None
+    # A pixel on a wall or the floor (drawn, no instance) names nothing.
+    vs, us = np.nonzero((seg == -1) & (ts.observation["depth"] < 50.0))
+    wall = (int(us[0]), int(vs[0]))
+    ts = _pick(agent, wall)
+    assert ts.action is not None and (ts.action.ok, ts.action.reason) == (False, "nothing_there")
+    ts = _pick(agent, pixel)
+    assert ts.action is not None and ts.action.ok, ts.action
+    assert ep.house.world.held == obj
+    # A pixel outside the frame is refused as an invalid action.
+    ts = agent.step({"primitive": "place", "target_px": [10, 250]})
+    assert ts.action is not None and (ts.action.ok, ts.action.reason) == (False,
+                                                                          "invalid_action")
+
+
+def test_vision_is_an_extra_split_with_the_standard_world_and_budgets() -> None:
+    plugin = load_track("track1")
+    assert "vision" in plugin.split_names() and "vision" not in plugin.splits
+    assert isinstance(plugin, Track1)
+    vision = plugin.hidden(plugin.make_scenario(seed=SEED, split="vision", params={}))
+    standard = plugin.hidden(plugin.make_scenario(seed=SEED, split="standard", params={}))
+    assert vision.layout_digest == standard.layout_digest
+    assert vision.task == standard.task and vision.exception == standard.exception
+    assert vision.budgets == standard.budgets and vision.queries == standard.queries
+    cfg = vision.split.config
+    assert (cfg.detections, cfg.segmentation, cfg.actions_by) == (False, False, "pixel")
+    same = {k: v for k, v in cfg.model_dump().items()
+            if k not in ("detections", "segmentation", "actions_by")}
+    assert same == {k: v for k, v in standard.split.config.model_dump().items()
+                    if k not in ("detections", "segmentation", "actions_by")}
+    std = standard.split.config
+    assert (std.detections, std.segmentation, std.actions_by) == (True, True, "id")

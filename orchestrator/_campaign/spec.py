@@ -125,10 +125,10 @@ def check_campaign(spec: CampaignSpec, *, source: str) -> None:
     except PluginError as e:
         raise SchemaError(source, [f"track: {e}"]) from None
     for i, split in enumerate(spec.splits):
-        if plugin.splits and split.name not in plugin.splits and not split.params:
+        if plugin.splits and split.name not in plugin.split_names() and not split.params:
             problems.append(f"splits.{i}.name: track {spec.track!r} has no split "
-                            f"{split.name!r} (it has {sorted(plugin.splits)}); give the split "
-                            "its params to define a new one")
+                            f"{split.name!r} (it has {sorted(plugin.split_names())}); give "
+                            "the split its params to define a new one")
     for i, sub in enumerate(spec.submissions):
         if sub.archive is not None and not sub.archive.is_file():
             problems.append(f"submissions.{i}.archive: no such file {sub.archive}")

@@ -45,6 +45,17 @@ def test_example_campaign_is_valid() -> None:
     assert [s.weight for s in spec.splits] == [0.6, 0.4]
 
 
+def test_a_campaign_may_name_a_public_extra_split(tmp_path: Path) -> None:
+    """Splits outside the final score (Track 1's dev and vision, Track 2's dev) are named
+    without parameters of their own, like the scored ones."""
+    text = ("name: extra-splits\ntrack: track1\nphase: local\n"
+            "splits:\n  - {name: vision, weight: 1.0, episodes: 1}\n"
+            "  - {name: dev, weight: 0.5, episodes: 1}\n"
+            "submissions:\n  - {team: a, image: x}\n")
+    spec = load_campaign(_write(tmp_path, text))
+    assert [s.name for s in spec.splits] == ["vision", "dev"]
+
+
 def test_relative_archive_is_resolved_against_the_file(tmp_path: Path) -> None:
     (tmp_path / "beta.tar").write_bytes(b"")
     spec = load_campaign(_write(tmp_path, GOOD))

@@ -8,6 +8,7 @@ import importlib.metadata
 import os
 import platform
 import signal
+import subprocess
 from pathlib import Path
 
 
@@ -49,3 +50,19 @@ def die_with_parent() -> None:
         libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
     if os.getppid() == 1:
         os._exit(1)
+
+
+def reap(procs: list[subprocess.Popen[bytes]]) -> None:
+    """Kills every child still running, waits for each (5 s at most) and closes its pipes;
+    empties ``procs``."""
+    for p in procs:
+        if p.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                p.kill()
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.wait(timeout=5)
+        for f in (p.stdout, p.stderr):
+            if f is not None:
+                f.close()
+    procs.clear()

@@ -41,7 +41,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from _machine import die_with_parent, load_average, machine_line  # noqa: E402  (sibling)
+from _machine import die_with_parent, load_average, machine_line, reap  # noqa: E402  (sibling)
 
 ROOT = Path(__file__).resolve().parents[2]
 H, W = 480, 640
@@ -560,16 +560,7 @@ class Runner:
         return p
 
     def kill_all(self) -> None:
-        for p in self.procs:
-            if p.poll() is None:
-                with contextlib.suppress(ProcessLookupError):
-                    p.kill()
-        for p in self.procs:
-            with contextlib.suppress(Exception):
-                p.wait(timeout=5)
-            if p.stdout is not None:
-                p.stdout.close()
-        self.procs.clear()
+        reap(self.procs)
 
     def run(self, case: str, payload: str, warmup: int, n: int) -> list[int]:
         sock = str(self.tmp / f"{case}-{payload}.sock")

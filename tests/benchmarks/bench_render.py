@@ -1,13 +1,13 @@
 #!/usr/bin/env python
-"""Render benchmark (issue 24): each track's observation render and official step, beside
-raw MuJoCo in the same run, at today's image size and at the official one.
+"""Render benchmark: each track's observation render and official step, beside
+raw MuJoCo in the same run, at the earlier small image size and at the official one.
 
     python tests/benchmarks/bench_render.py [--quick] [--rounds R] [--size WxH]
         [--families a,b] [--gpu | --no-gpu] [--json out.json]
 
 Cases: Track 1 ``standard`` and ``challenge`` (one house each, seed ``--track1-seed``),
 Track 2 ``standard`` and ``challenge`` for each of ``--families`` (one sampled instance
-each, seed ``--track2-seed``), each at today's size (Track 1 96x72, Track 2 128x96) and at
+each, seed ``--track2-seed``), each at the earlier small size (Track 1 96x72, Track 2 128x96) and at
 the size the split's own config asks for (``simhost.track1.SPLITS[split].config.image_size``,
 ``simhost.track2.SPLITS[split].bench.observation.image_size``); ``--size WxH`` adds one more
 size (a candidate before the tracks adopt it). For each case and size, in one process:
@@ -44,7 +44,7 @@ GPU is found (``/dev/nvidia0`` or ``nvidia-smi``; ``--gpu`` / ``--no-gpu`` decid
 round also runs on it, and the CPU rows are forced onto Mesa (glvnd's vendor file); each
 group of rows names the GL renderer that made it. Nothing else depends on a GPU.
 
-Goals (issue 24 §3): render <= 1.2x raw, step <= 1.2x floor, < 20 ms per step at the
+Goals: render <= 1.2x raw, step <= 1.2x floor, < 20 ms per step at the
 official size on a CPU-only worker, < 250 MB peak per env. Not collected by pytest.
 """
 
@@ -64,11 +64,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from _machine import die_with_parent, load_average, machine_line  # noqa: E402  (sibling)
+from _machine import die_with_parent, load_average, machine_line, reap  # noqa: E402  (sibling)
 
 ROOT = Path(__file__).resolve().parents[2]
 TODAY = {"track1": (96, 72), "track2": (128, 96)}
-"""(width, height) of the observations before issue 24."""
+"""(width, height) of the small sizes the splits used to observe at, for comparison."""
 SPLITS = ("standard", "challenge")
 MESA_VENDOR = Path("/usr/share/glvnd/egl_vendor.d/50_mesa.json")
 GOALS = {"render": 1.2, "step": 1.2, "ms": 20.0, "mib": 250.0}
@@ -399,17 +399,7 @@ class Runner:
         return env
 
     def kill_all(self) -> None:
-        for p in self.procs:
-            if p.poll() is None:
-                with contextlib.suppress(ProcessLookupError):
-                    p.kill()
-        for p in self.procs:
-            with contextlib.suppress(Exception):
-                p.wait(timeout=5)
-            for f in (p.stdout, p.stderr):
-                if f is not None:
-                    f.close()
-        self.procs.clear()
+        reap(self.procs)
 
     def run(self, spec: dict[str, Any], device: str) -> dict[str, Any]:
         argv = [sys.executable, str(Path(__file__).resolve()), "--child", json.dumps(spec)]
@@ -533,10 +523,10 @@ def table(rows: list[tuple[dict[str, Any], dict[str, Any] | str]]) -> list[str]:
         official = spec["source"] != "today"
         lines.append(
             f"{spec['label']:<20}{size:>8} {r['render_ms']:>7.2f}{r['raw_render_ms']:>6.2f}"
-            f"{r['render_x']:>5.2f}{_mark(r['render_x'], GOALS['render'])}"
+            f" {r['render_x']:>4.2f}{_mark(r['render_x'], GOALS['render'])}"
             f"{r['step_ms']:>7.2f}"
             f"{' ' if not official else _mark(r['step_ms'], GOALS['ms'])}"
-            f"{r['floor_ms']:>6.2f}{r['step_x']:>5.2f}{_mark(r['step_x'], GOALS['step'])}"
+            f"{r['floor_ms']:>6.2f} {r['step_x']:>4.2f}{_mark(r['step_x'], GOALS['step'])}"
             f"{r['bare_x']:>7.2f} {r['peak_mib']:>5.0f}{_mark(r['peak_mib'], GOALS['mib'])}"
         )
     return [line.rstrip() for line in lines]

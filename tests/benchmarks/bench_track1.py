@@ -43,7 +43,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from _machine import die_with_parent, load_average, machine_line  # noqa: E402  (sibling)
+from _machine import die_with_parent, load_average, machine_line, reap  # noqa: E402  (sibling)
 
 ROOT = Path(__file__).resolve().parents[2]
 KINDS = ("standard", "challenge")
@@ -224,17 +224,7 @@ class Runner:
         )
 
     def kill_all(self) -> None:
-        for p in self.procs:
-            if p.poll() is None:
-                with contextlib.suppress(ProcessLookupError):
-                    p.kill()
-        for p in self.procs:
-            with contextlib.suppress(Exception):
-                p.wait(timeout=5)
-            for f in (p.stdout, p.stderr):
-                if f is not None:
-                    f.close()
-        self.procs.clear()
+        reap(self.procs)
 
     def run(self, config: str, kind: str, seeds: list[int], n: int, warmup: int) -> dict[str, Any]:
         argv = [

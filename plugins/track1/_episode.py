@@ -126,6 +126,8 @@ def _observation_spec(env: Any) -> tuple[FieldSpec, ...]:
     for name, box in env.observation_space.spaces.items():
         dtype = "uint8" if box.dtype == np.int8 else box.dtype.name
         text = _OBS_TEXT.get(name, "")
+        if name == "held" and env.config.held == "flag":
+            text = "1 when the hand holds something, else 0 (this split names no ids)"
         if name in names:
             text = text.replace("the choices", "(" + ", ".join(names[name]) + ")")
         out.append(FieldSpec(name=name, dtype=dtype, shape=tuple(box.shape),
@@ -258,7 +260,8 @@ class Track1Episode(TrackEpisode):
             return (
                 HostMessage(type="instruction", data=instruction),
                 HostMessage(type="queries", data={
-                    "queries": _queries.to_send(self.spec.queries, self.seen),
+                    "queries": _queries.to_send(
+                        self.spec.queries, self.seen if self.env.config.detections else ()),
                     "answer_with": "an answer request during planning: {query id: answer}; "
                     "'unknown' scores as wrong, never below zero"}),
             )

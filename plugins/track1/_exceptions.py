@@ -225,10 +225,12 @@ class ControlledException:
 
 
 def route_doors(ep: LiveEpisode) -> list[int]:
-    """Doors of the agent's route, else of the shortest path through the task's rooms."""
+    """Doors of the agent's route, else of the shortest path through the task's rooms. On a
+    split without a detector (``vision``) the plan's door ids are the agent's own: the doors
+    are those between the route's rooms (room ids are shown)."""
     house, layout = ep.house, ep.env.layout
     plan = ep.plan or Track1Plan()
-    door_ids = {d.id for d in layout.doors}
+    door_ids = {d.id for d in layout.doors} if ep.env.config.detections else set()
     doors = [d for d in plan.doors if d in door_ids]
     if not doors and plan.route:
         pairs = {frozenset(d.rooms): d.id for d in reversed(layout.doors)}

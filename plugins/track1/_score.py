@@ -48,7 +48,8 @@ from typing import Any
 from plugins._audit import HostSteps, log_step_findings
 from plugins._base import ScoringInput
 from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, shown_from
-from plugins.track1._queries import f1
+from plugins.track1._matching import IdMatch, match, matched, rename, rename_answer
+from plugins.track1._queries import f1, score_answer
 from plugins.track1._types import ExceptionRecord, GradedQuery, Track1Outcome, Track1Scenario
 from plugins.track1.audit import (
     Shown,
@@ -316,13 +317,15 @@ def query_notes(o: Track1Outcome) -> list[str]:
             + ", ".join(left[:8]) + (", …" if len(left) > 8 else "")]
 
 
-def credit_notes(data: ScoringInput[Track1Scenario, Track1Outcome], o: Track1Outcome
-                 ) -> list[str]:
-    """Every note on credit the score threw away (module doc)."""
+def credit_notes(data: ScoringInput[Track1Scenario, Track1Outcome], o: Track1Outcome,
+                 *, graded: WorldModel | None = None) -> list[str]:
+    """Every note on credit the score threw away (module doc); ``graded``: the exploration
+    snapshot as graded (under the true ids on ``vision``), else the snapshot itself."""
     log = data.log()
     snapshot = data.snapshot(EXPLORATION, "world_model.json", WorldModel)
+    graded = snapshot if graded is None else graded
     notes = detection_notes(o, log, data.scenario.params)
-    notes += unseen_notes(snapshot, shown_from(o.shown), o.stage_steps.get(EXPLORATION, o.steps))
+    notes += unseen_notes(graded, shown_from(o.shown), o.stage_steps.get(EXPLORATION, o.steps))
     notes += log_step_notes(o, log)
     notes += query_notes(o)
     for name, parsed in data.files.items():
@@ -336,6 +339,28 @@ def credit_notes(data: ScoringInput[Track1Scenario, Track1Outcome], o: Track1Out
     return notes
 
 
+def own_ids(data: ScoringInput[Track1Scenario, Track1Outcome]) -> bool:
+    """Whether the split shows no ids (no detector: ``vision``): the files then use the
+    agent's own ids, which the score matches to the truth's (``_matching``)."""
+    from pydantic import ValidationError
+
+    hidden = getattr(data.scenario, "hidden", None)
+    if not isinstance(hidden, Track1Scenario):
+        try:
+            hidden = Track1Scenario.model_validate(data.scenario.params)
+        except ValidationError:
+            return False
+    return not hidden.split.config.detections
+
+
+def regraded(queries: Sequence[GradedQuery], ids: IdMatch) -> tuple[GradedQuery, ...]:
+    """The queries with the answers that list the agent's tool ids (``tools_for``) read
+    under the true ids the exploration snapshot matched."""
+    return tuple(q.model_copy(update={"score": score_answer(
+        q.kind, rename_answer(q.answer, ids.objects), q.truth)})
+        if q.kind == "tools_for" else q for q in queries)
+
+
 def score(data: ScoringInput[Track1Scenario, Track1Outcome], track: str) -> ScoreCard:
     """The score card of one episode, whatever way it ended."""
     o = read_outcome(data.outcome)
@@ -345,12 +370,20 @@ def score(data: ScoringInput[Track1Scenario, Track1Outcome], track: str) -> Scor
                          notes=("the episode never started",))
     notes: list[str] = []
     snapshot = data.snapshot(EXPLORATION, "world_model.json", WorldModel)
+    final = data.file("world_model.json", WorldModel)
+    queries: Sequence[GradedQuery] = o.queries
     if snapshot is None:
         notes.append("no valid world_model.json when exploration ended: model graded 0")
-    parts = model_parts(snapshot, o.gt_exploration, o.queries)
+    if own_ids(data):  # vision: the agent's ids, renamed to the truth's they match
+        ids = IdMatch() if snapshot is None or o.gt_exploration is None else \
+            match(snapshot, o.gt_exploration)
+        snapshot = None if snapshot is None else rename(snapshot, ids)
+        final = matched(final, o.gt_final)
+        queries = regraded(queries, ids)
+    parts = model_parts(snapshot, o.gt_exploration, queries)
     model = sum(MODEL_PARTS[k] * v for k, v in parts.items())
     log = data.log()
-    rec, had_exception = recovery_parts(o, log, data.file("world_model.json", WorldModel))
+    rec, had_exception = recovery_parts(o, log, final)
     task = 0.6 * o.success + 0.4 * o.subgoal_fraction
     components = {"task": task, "model": model,
                   "recovery": sum(rec.values()) / (3 if had_exception else 1),
@@ -363,7 +396,7 @@ def score(data: ScoringInput[Track1Scenario, Track1Outcome], track: str) -> Scor
                      "task without a false alarm")
     if o.exception_skipped:
         notes.append(f"exception skipped: {o.exception_skipped}")
-    notes += credit_notes(data, o)
+    notes += credit_notes(data, o, graded=snapshot)
     total = sum(WEIGHTS[k] * components[k] for k in WEIGHTS)
     metrics = {"task_success": float(o.success), "model_verification": model,
                "invalid_actions": float(data.invalid_actions + data.protocol_errors),

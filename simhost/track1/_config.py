@@ -94,6 +94,10 @@ class HouseEnvConfig(BaseModel):
     segmentation: bool = True
     """False: the ``segmentation`` image is left out of the observation; it is still
     rendered with every frame and kept host-side, to resolve actions by pixel."""
+    held: Literal["id", "flag"] = "id"
+    """What ``held`` reports. ``id``: the instance id of the held item (-1: hand empty).
+    ``flag``: 1 when the hand holds something, else 0 (the ``vision`` split: an id would
+    name what the camera shows no id of)."""
     actions_by: Literal["id", "pixel"] = "id"
     """What names the thing an action acts on. ``id``: ``target``/``tool`` instance ids.
     ``pixel``: ``target_px``/``tool_px``, a pixel ``[u, v]`` (column, row) of the last

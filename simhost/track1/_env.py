@@ -107,7 +107,7 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
             "range_scan": spaces.Box(0.0, cfg.scan_range, (cfg.scan_rays,), np.float32),
             "room": ints(-1, MAX_ROOMS - 1, (1,)),
             "room_type": ints(-1, len(ROOM_TYPES) - 1, (1,)),
-            "held": ints(-1, MAX_IDS - 1, (1,)),
+            "held": ints(0, 1, (1,)) if cfg.held == "flag" else ints(-1, MAX_IDS - 1, (1,)),
             "last_action_ok": ints(0, 1, (1,), np.int8),
             "collided": ints(0, 1, (1,), np.int8),
         }
@@ -288,7 +288,8 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
                 [ROOM_TYPES.index(house.layout.rooms[room].type) if room >= 0 else -1],
                 dtype=np.int32,
             ),
-            "held": np.array([house.world.held], dtype=np.int32),
+            "held": np.array([house.world.held if cfg.held == "id"
+                              else int(house.world.held >= 0)], dtype=np.int32),
             "last_action_ok": np.array([int(self._last.ok)], dtype=np.int8),
             "collided": np.array([int(self._last.collided)], dtype=np.int8),
         }

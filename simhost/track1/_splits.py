@@ -79,7 +79,8 @@ high, 91 wide) of the earlier 96x72 images at the pixel count of a 224x224 visio
 input (49,152 vs 50,176 pixels): a team resizes or crops without losing the field of view."""
 
 VISION_SENSING = ROBOT_SENSING.model_copy(
-    update={"detections": False, "segmentation": False, "actions_by": "pixel"})
+    update={"detections": False, "segmentation": False, "actions_by": "pixel",
+            "held": "flag"})
 """The official robot with no detector: what it sees is pixels (``vision``)."""
 
 SPLITS: dict[str, HouseSplit] = {

@@ -42,6 +42,7 @@ from schemas import (
 )
 from simhost._actions import ActionError, check_action
 from simhost.agent import HostError, TimeStep
+from simhost.track1 import house_split
 
 _LIMITS = Limits()
 
@@ -212,7 +213,7 @@ def run_agent(make_agent: Callable[[Track1Episode], Any], split: str, seed: int,
     it); None: a one-off episode (the seed draws it)."""
     plugin = load_track("track1")
     merged = dict(params or {})
-    if not render:
+    if not render and house_split(split).config.actions_by == "id":  # pixels need frames
         merged["render_rgbd"] = False
     scenario = plugin.make_scenario(seed=seed, split=split, params=merged, index=index)
     episode = plugin.make_episode(scenario)

@@ -8,6 +8,12 @@ containers on its way. It logs the exception the step it happens, rewrites its m
 takes the valid alternative (a detour, the new place, a substitute). Its score shows that
 the tasks are solvable within the step budgets.
 
+On a split that acts by pixel (``vision``) it acts and writes through the same channels as
+any agent there: it faces what it acts on (sweeping a little when it is not in frame) and
+names the pixel of the last frame nearest the centre of its mask; its files, plan and
+answers use ids of its own (the true ids under a fixed permutation), which the score
+matches back by position (``plugins.track1._matching``).
+
 ``DoNothing`` ends each stage at once and sends ``done``.
 """
 
@@ -15,6 +21,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -37,23 +44,52 @@ RES = 0.05
 ROBOT = 0.25 + 0.04  # the base's radius (simhost.track1's ROBOT_RADIUS) plus a margin
 TURN = math.pi / 4
 STEP = 0.5
+SEARCH = ((0.0, 0.0), (0.0, 0.3), (0.0, -0.3), (0.3, 0.0), (0.5, 0.0), (0.5, 0.3), (0.5, -0.3),
+          (0.3, 0.3), (0.3, -0.3))
+"""By pixel: (step back from an item, m; turn, rad) from the access pose, tried in turn
+while the target is not in frame."""
 
 
-def world_model(truth: HouseTruth, step: int) -> WorldModel:
-    """The true house as a ``world_model.json``."""
+def world_model(truth: HouseTruth, step: int,
+                rename: Callable[[int], int] = lambda i: i) -> WorldModel:
+    """The true house as a ``world_model.json``; ``rename``: the ids it writes (room ids
+    stay)."""
     return WorldModel(
         step=step,
         rooms=[Room(id=r.id, type=r.type) for r in truth.rooms],
-        connections=[Connection(rooms=c.rooms, door=c.door) for c in truth.connections],
-        doors=[DoorState(id=d.id, state=d.state) for d in truth.doors],  # type: ignore[arg-type]
-        containers=[ContainerState(id=c.id, type=c.category, room=c.room, state=c.state)  # type: ignore[arg-type]
-                    for c in truth.containers],
-        objects=[ObjectEntry(id=o.id, category=o.category, colour=o.colour, room=o.room,
-                             receptacle=o.receptacle, position=o.position[:2], state=o.state)
+        connections=[Connection(rooms=c.rooms, door=rename(c.door)) for c in truth.connections],
+        doors=[DoorState(id=rename(d.id), state=d.state) for d in truth.doors],  # type: ignore[arg-type]
+        containers=[ContainerState(id=rename(c.id), type=c.category, room=c.room,  # type: ignore[arg-type]
+                                   state=c.state) for c in truth.containers],
+        objects=[ObjectEntry(id=rename(o.id), category=o.category, colour=o.colour,
+                             room=o.room, receptacle=rename(o.receptacle),
+                             position=o.position[:2], state=o.state)
                  for o in truth.objects],
-        affordances=[Affordance(tool=a.tool, affordance=a.affordance)
+        affordances=[Affordance(tool=rename(a.tool), affordance=a.affordance)
                      for a in truth.affordances],
     )
+
+
+def permutation(truth: HouseTruth, seed: int = 0) -> dict[int, int]:
+    """A fixed permutation of every instance id of the house onto ids of its own (from
+    1000), so that no written id is a true one."""
+    ids = sorted({d.id for d in truth.doors} | {f.id for f in (*truth.furniture,
+                                                                *truth.containers)}
+                 | {o.id for o in truth.objects} | {t.id for t in truth.tools})
+    order = np.random.default_rng(seed).permutation(len(ids))
+    return {i: 1000 + int(k) for i, k in zip(ids, order, strict=True)}
+
+
+def pixel_of(segmentation: np.ndarray | None, instance: int) -> list[int] | None:
+    """The pixel ``[u, v]`` of ``instance``'s mask nearest the mask's centre; None when
+    it is not in the frame."""
+    if segmentation is None:
+        return None
+    vs, us = np.nonzero(segmentation == instance)
+    if len(us) == 0:
+        return None
+    k = int(np.argmin((us - us.mean()) ** 2 + (vs - vs.mean()) ** 2))
+    return [int(us[k]), int(vs[k])]
 
 
 class DoNothing:
@@ -155,6 +191,16 @@ class Oracle:
         self._grids: dict[tuple[tuple[int, str], ...], _Grid] = {}
         self._fields: dict[Any, np.ndarray] = {}
         self.opened: set[int] = set()
+        self.by_pixel = episode.env.config.actions_by == "pixel"
+        self.ids: dict[int, int] = {}
+        self.sweep = 0  # vision: how far the search for the target in frame has turned
+
+    def own(self, instance: int) -> int:
+        """The id the oracle writes for a true id (itself where the split shows ids)."""
+        return self.ids.get(instance, instance)
+
+    def model(self, step: int) -> WorldModel:
+        return world_model(self.truth(), step, self.own)
 
     # ------------------------------------------------------------------ knowledge
     def truth(self) -> HouseTruth:
@@ -172,14 +218,22 @@ class Oracle:
         env.hello(agent="oracle")
         ts = env.reset()
         self.files.log(step=0, stage=ts.stage, event="stage")
-        self.files.write(world_model(self.truth(), 0))
+        if self.by_pixel:
+            self.ids = permutation(self.truth())
+        self.files.write(self.model(0))
         ts = env.end_stage()
         truth = self.truth()
         answers = {q.id: truth_of(q, truth) for q in self.ep.spec.queries}
+        answers = {k: [self.own(i) for i in v] if q.kind == "tools_for" else v
+                   for q in self.ep.spec.queries for k, v in [(q.id, answers[q.id])]}
         ts = env.answer(answers)
-        ts = env.end_stage({"plan": self.plan(truth)})
+        plan = self.plan(truth)
+        plan["doors"] = [self.own(d) for d in plan["doors"]]
+        ts = env.end_stage({"plan": plan})
         while not ts.episode_over:
             action = self.next_action(ts) if self.ep.success() is False else None
+            if action is not None and self.by_pixel:
+                action = self.through_pixels(action)
             ts = env.step(action or {"primitive": "done"})
             self.step += 1
             rec = self.ep.exception.record
@@ -187,8 +241,8 @@ class Oracle:
                 self.reported = True
                 self.files.log(step=self.step, stage=ts.stage, event="exception_detected",
                                exception_type=rec.type)
-                self.files.write(world_model(self.truth(), self.step))
-        self.files.write(world_model(self.truth(), self.step))
+                self.files.write(self.model(self.step))
+        self.files.write(self.model(self.step))
 
     def plan(self, truth: HouseTruth) -> dict[str, Any]:
         house = self.ep.house
@@ -202,6 +256,40 @@ class Oracle:
             route += house.shortest_path(a, b)[1:]
         return {"subgoals": list(self.ep.task.steps), "route": route,
                 "doors": house.route_doors(route)}
+
+    # ------------------------------------------------------------------ by pixel
+    def aim(self, at: tuple[float, float], entity: int, yaw: float
+            ) -> tuple[tuple[float, float], float]:
+        """Where to act from and facing which way: ``at`` and ``yaw`` where the split takes
+        ids; by pixel, toward the thing (its mask then lies in frame), stepping back from an
+        item and turning a little as the search (``SEARCH``) goes on while it is not in
+        frame (a low item in an open drawer shows only from farther than the access pose)."""
+        if not self.by_pixel:
+            return at, yaw
+        truth = self.truth()
+        obj, rec = truth.object(entity), truth.receptacle(entity)
+        door = next((d for d in truth.doors if d.id == entity), None)
+        where = obj.position[:2] if obj is not None else rec.position if rec is not None \
+            else door.position if door is not None else None
+        if where is None:
+            return at, yaw
+        back, turn = SEARCH[self.sweep % len(SEARCH)]
+        d = max(1e-6, math.dist(at, where))
+        if obj is not None and back:
+            at = (at[0] - back * (where[0] - at[0]) / d, at[1] - back * (where[1] - at[1]) / d)
+        return at, math.atan2(where[1] - at[1], where[0] - at[0]) + turn
+
+    def through_pixels(self, action: dict[str, Any]) -> dict[str, Any]:
+        """An id-addressed action as the pixel split takes it: the target's pixel (the tool
+        is the held item); when it is not in frame, the next yaw of the search sweep."""
+        if "target" not in action:
+            return action
+        px = pixel_of(self.ep.env.last_segmentation(), int(action["target"]))
+        if px is not None:
+            self.sweep = 0
+            return {"primitive": action["primitive"], "target_px": px}
+        self.sweep += 1
+        return {"primitive": "noop"}
 
     # ------------------------------------------------------------------ execution
     def next_action(self, ts: TimeStep) -> dict[str, Any] | None:
@@ -268,7 +356,7 @@ class Oracle:
         f = self.ep.env.layout.entity(place)
         assert isinstance(f, Furniture)
         ax, ay, ayaw = f.access
-        move = self.go((ax, ay), ayaw)
+        move = self.go(*self.aim((ax, ay), fields.get("target", place), ayaw))
         if move is not None:
             return move
         return {"primitive": primitive, "target": fields.get("target", place),
@@ -281,6 +369,8 @@ class Oracle:
             found = self._closed_door_on_path(goal)
             if found is not None:
                 return self._open_door(*found)
+            if self.by_pixel and math.dist((x, y), goal) < 0.6:  # the search's step back
+                return self._escape(goal)
             return self._drive(goal, frozenset())
         err = math.remainder(yaw - th, math.tau)
         if abs(err) > 0.05:
@@ -339,7 +429,7 @@ class Oracle:
 
     def _open_door(self, door: Door, side: int) -> dict[str, Any]:
         ax, ay, ayaw = door.approach(side, 1.4 if side == door.swing_room else 0.8)
-        move = self._drive_to((ax, ay), ayaw)
+        move = self._drive_to(*self.aim((ax, ay), door.id, ayaw))
         return move or {"primitive": "open", "target": door.id}
 
     def _drive_to(self, goal: tuple[float, float], yaw: float) -> dict[str, Any] | None:

@@ -163,7 +163,7 @@ def test_vision_shows_pixels_and_takes_pixels_through_the_host(served: _Served) 
         assert ts.action.reason == out.action.reason == "out_of_reach"
     finally:
         by_id.close()
-    assert ts.observation["held"][0] == -1
+    assert ts.observation["held"][0] == 0  # a flag on vision: the hand is empty
 
     # From in front of it: its pixel picks it.
     ep.env.teleport_robot(*near)
@@ -179,7 +179,7 @@ def test_vision_shows_pixels_and_takes_pixels_through_the_host(served: _Served) 
     assert ts.action is not None and (ts.action.ok, ts.action.reason) == (False, "nothing_there")
     ts = _pick(agent, pixel)
     assert ts.action is not None and ts.action.ok, ts.action
-    assert ep.house.world.held == obj
+    assert ep.house.world.held == obj and ts.observation["held"][0] == 1  # no id shown
     # A pixel outside the frame is refused as an invalid action.
     ts = agent.step({"primitive": "place", "target_px": [10, 250]})
     assert ts.action is not None and (ts.action.ok, ts.action.reason) == (False,
@@ -196,10 +196,10 @@ def test_vision_is_an_extra_split_with_the_standard_world_and_budgets() -> None:
     assert vision.task == standard.task and vision.exception == standard.exception
     assert vision.budgets == standard.budgets and vision.queries == standard.queries
     cfg = vision.split.config
-    assert (cfg.detections, cfg.segmentation, cfg.actions_by) == (False, False, "pixel")
-    same = {k: v for k, v in cfg.model_dump().items()
-            if k not in ("detections", "segmentation", "actions_by")}
+    own = ("detections", "segmentation", "actions_by", "held")
+    assert tuple(getattr(cfg, k) for k in own) == (False, False, "pixel", "flag")
+    same = {k: v for k, v in cfg.model_dump().items() if k not in own}
     assert same == {k: v for k, v in standard.split.config.model_dump().items()
-                    if k not in ("detections", "segmentation", "actions_by")}
+                    if k not in own}
     std = standard.split.config
-    assert (std.detections, std.segmentation, std.actions_by) == (True, True, "id")
+    assert tuple(getattr(std, k) for k in own) == (True, True, "id", "id")

@@ -117,3 +117,32 @@ def test_actions_by_pixel_need_frames_and_other_splits_keep_ids() -> None:
         assert set(env.action_space.spaces) == {"primitive", "move", "target", "tool"}
     finally:
         env.close()
+
+
+def test_held_is_a_flag_on_vision_and_an_id_elsewhere() -> None:
+    flag, ids = HouseEnv(split="standard", held="flag"), HouseEnv(split="standard")
+    try:
+        assert house_split("vision").config.held == "flag"
+        assert all(house_split(s).config.held == "id" for s in ("dev", "standard", "challenge"))
+        box = flag.observation_space["held"]
+        assert (int(box.low[0]), int(box.high[0])) == (0, 1)
+        assert int(ids.observation_space["held"].low[0]) == -1
+        obs_f, _ = flag.reset(seed=SEED)
+        obs_i, _ = ids.reset(seed=SEED)
+        assert obs_f["held"].tolist() == [0] and obs_i["held"].tolist() == [-1]
+        truth = ids.ground_truth()
+        layout = ids.layout
+        item = next(o for o in truth.objects
+                    if getattr(layout.entity(o.receptacle), "opening", "") == "none")
+        access = truth.receptacle(item.receptacle)
+        assert access is not None
+        for env in (flag, ids):
+            env.teleport_robot(*access.access)
+        obs_f, _, _, _, info = flag.step(make_action("pick", target=item.id))
+        obs_i, _, _, _, _ = ids.step(make_action("pick", target=item.id))
+        assert info["action_result"]["ok"], info["action_result"]
+        assert obs_f["held"].tolist() == [1] and obs_i["held"].tolist() == [item.id]
+        assert flag.observation_space.contains(obs_f)
+    finally:
+        flag.close()
+        ids.close()

@@ -3,7 +3,7 @@
 
     python tests/benchmarks/bench_track1_fidelity.py [--standard A:B] [--challenge A:B]
         [--agents sanity,heuristic,memoryfree,lookahead,structured,oracle,nothing]
-        [--workers 2] [--cap N] [--render] [--json out.json]
+        [--workers 2] [--cap N] [--render] [--json out.json] [--vision A:B]
 
 - ``--standard A:B`` / ``--challenge A:B``: the seeds of each official split (Python range
   notation, B excluded; default 0:40 each). Hidden campaigns draw their seeds from an HMAC,
@@ -21,6 +21,11 @@
   is two thirds of a step's cost.
 - ``--json``: also write every episode's figures (its score card's components and
   metrics: the parts of the model and recovery scores among them).
+- ``--vision A:B``: also play the ``vision`` extra split (pixels in, actions by pixel,
+  files matched to the truth by position) on these seeds with the systems that act by pixel
+  (``oracle``, ``nothing``; the baselines name ids), and print its row: the mean score, task
+  success and model verification, with the checks oracle >= 95 and do-nothing 0 there.
+  Frames are always rendered on ``vision``.
 - ``--unstratified``: each seed draws its exception, as a one-off episode does. By default
   the ``k``-th seed of a split's range is episode index ``k``, as in a campaign, and the
   index decides the exception type (``plugins/track1/_scenario.py``); the report says how
@@ -186,6 +191,32 @@ def table(rows: dict[str, dict[str, float]]) -> list[str]:
     return lines
 
 
+VISION_SYSTEMS = ("oracle", "nothing")
+"""The systems that act by pixel (the baselines name things by id)."""
+
+
+def vision_lines(results: list[dict[str, Any]]) -> tuple[list[str], list[tuple[str, bool]]]:
+    """The ``vision`` split's row per system, and its checks (oracle >= 95, do-nothing 0)."""
+    lines = [f"{'vision split':<22} {'Score':>6} {'Succ.%':>7} {'Model%':>7} {'Inv.':>5} "
+             f"{'episodes':>8}"]
+    means: dict[str, float] = {}
+    for system in VISION_SYSTEMS:
+        mine = [r for r in results if r["system"] == system and r["split"] == "vision"]
+        if not mine:
+            continue
+        means[system] = 100 * _mean([r["total"] for r in mine])
+        lines.append(f"{NAMES[system]:<22} {means[system]:>6.1f} "
+                     f"{100 * _mean([r['success'] for r in mine]):>7.1f} "
+                     f"{100 * _mean([r['model'] for r in mine]):>7.1f} "
+                     f"{_mean([r['invalid'] for r in mine]):>5.2f} {len(mine):>8}")
+    out = []
+    if "oracle" in means:
+        out.append((f"oracle >= 95 on vision ({means['oracle']:.1f})", means["oracle"] >= 95))
+    if "nothing" in means:
+        out.append((f"do-nothing 0 on vision ({means['nothing']:.1f})", means["nothing"] == 0))
+    return lines, out
+
+
 def checks(rows: dict[str, dict[str, float]], repeat: tuple[str, float, float] | None
            ) -> list[tuple[str, bool]]:
     out: list[tuple[str, bool]] = []
@@ -282,6 +313,7 @@ def main() -> None:
     ap.add_argument("--cap", type=int, default=None)
     ap.add_argument("--render", action="store_true")
     ap.add_argument("--unstratified", action="store_true")
+    ap.add_argument("--vision", type=_range, default=None, metavar="A:B")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--child", nargs=3, metavar=("SYSTEM", "SPLIT", "SEEDS"),
                     help=argparse.SUPPRESS)
@@ -306,6 +338,10 @@ def main() -> None:
         for split, seeds in (("standard", args.standard), ("challenge", args.challenge)):
             indexed = [(s, None if args.unstratified else k) for k, s in enumerate(seeds)]
             jobs += [(system, split, indexed[k:k + CHUNK]) for k in range(0, len(seeds), CHUNK)]
+        if args.vision and system in VISION_SYSTEMS:
+            indexed = [(s, None if args.unstratified else k) for k, s in enumerate(args.vision)]
+            jobs += [(system, "vision", indexed[k:k + CHUNK])
+                     for k in range(0, len(indexed), CHUNK)]
     first = next((s for s in ("structured", "heuristic") if s in systems),
                  next(s for s in systems if s != "nothing"))
     jobs.append((f"repeat:{first}", "standard",
@@ -326,7 +362,8 @@ def main() -> None:
 
     with ThreadPoolExecutor(max_workers=args.workers) as pool:
         results = [r for rows in pool.map(run, jobs) for r in rows]
-    main_rows = [r for r in results if not r["repeat"]]
+    vision_rows = [r for r in results if r["split"] == "vision"]
+    main_rows = [r for r in results if not r["repeat"] and r["split"] != "vision"]
     rows = {s: row([r for r in main_rows if r["system"] == s]) for s in systems}
     again = next(r for r in results if r["repeat"])
     once = next(r for r in main_rows if r["system"] == again["system"]
@@ -337,8 +374,13 @@ def main() -> None:
     print(f"Track 1, Table IV (ours above the paper's), {time.perf_counter() - t0:.0f} s")
     print("\n".join(table(rows)))
     print("\nCalibration checks:")
-    for text, ok in checks(rows, repeat):
+    vlines, vchecks = vision_lines(vision_rows) if args.vision else ([], [])
+    for text, ok in checks(rows, repeat) + vchecks:
         print(f"  {'ok  ' if ok else 'FAIL'} {text}")
+    if vlines:
+        print(f"\nThe vision split, seeds {args.vision[0]}-{args.vision[-1]} "
+              "(outside the final):")
+        print("\n".join(vlines))
     episodes = {s: {(r["split"], r["seed"]): ("", 100 * r["total"]) for r in main_rows
                     if r["system"] == s} for s in systems}
     print("\n".join(uncertainty_lines(episodes, ORDER, WEIGHTS, NAMES)))
@@ -352,7 +394,9 @@ def main() -> None:
               f"{errors[0]['system']} {errors[0]['split']} {errors[0]['seed']}: "
               f"{errors[0]['error'][:60]}")
     if args.json:
-        args.json.write_text(json.dumps({"rows": rows, "episodes": results}, indent=1))
+        args.json.write_text(json.dumps({"rows": rows, "episodes": [
+            r for r in results if r["split"] != "vision"],
+            **({"vision": vision_rows} if args.vision else {})}, indent=1))
 
 
 if __name__ == "__main__":

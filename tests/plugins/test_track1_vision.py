@@ -203,3 +203,29 @@ def test_vision_is_an_extra_split_with_the_standard_world_and_budgets() -> None:
                     if k not in own}
     std = standard.split.config
     assert tuple(getattr(std, k) for k in own) == (True, True, "id", "id")
+
+
+def test_vision_queries_name_no_ids_and_its_files_are_matched() -> None:
+    from types import SimpleNamespace
+
+    from plugins.track1 import PLANNING
+    from plugins.track1._queries import ID_FIELD
+    from plugins.track1._score import own_ids
+
+    plugin = load_track("track1")
+    for split, matched in (("vision", True), ("standard", False)):
+        scenario = plugin.make_scenario(seed=SEED, split=split, params={})
+        assert own_ids(SimpleNamespace(scenario=scenario)) is matched  # type: ignore[arg-type]
+        ep = plugin.make_episode(scenario)
+        assert isinstance(ep, Track1Episode)
+        try:
+            ep.reset()
+            for _ in range(8):  # look all around: things come into the frame
+                ep.step(EXPLORATION, {"primitive": PRIMITIVES.index("move"), "move": [0, 1]})
+            asked = {q.subject for q in ep.spec.queries if q.kind in ID_FIELD}
+            assert ep.seen & asked, "nothing a query asks about was seen: pick another seed"
+            msg = next(m for m in ep.on_stage_start(PLANNING) if m.type == "queries")
+            named = [q for q in msg.data["queries"] if set(ID_FIELD.values()) & set(q)]
+            assert bool(named) is not matched, split
+        finally:
+            ep.close()

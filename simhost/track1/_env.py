@@ -329,7 +329,7 @@ class HouseEnv(gym.Env[dict[str, np.ndarray], dict[str, Any]]):
             detections=tuple(house.detections()) if self.config.detections else (),
             room=room,
             room_type=house.layout.rooms[room].type if room >= 0 else None,
-            held=house.world.held,
+            held=house.world.held if self.config.held == "id" else int(house.world.held >= 0),
             step=house.world.steps,
             sim_warnings=house.sim.warnings(),
             task_satisfied=None if self.task is None else house.task_satisfied(self.task),

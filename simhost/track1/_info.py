@@ -30,7 +30,8 @@ class HouseInfo:
     room_type: str | None
     """The type of ``room``; None when ``room`` is -1."""
     held: int
-    """Instance id of the held item; -1 when the hand is empty."""
+    """Instance id of the held item; -1 when the hand is empty (``held="flag"``: 1 when
+    the hand holds something, else 0)."""
     step: int
     """Primitives run since reset."""
     sim_warnings: Mapping[str, int]

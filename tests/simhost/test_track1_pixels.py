@@ -127,9 +127,10 @@ def test_held_is_a_flag_on_vision_and_an_id_elsewhere() -> None:
         box = flag.observation_space["held"]
         assert (int(box.low[0]), int(box.high[0])) == (0, 1)
         assert int(ids.observation_space["held"].low[0]) == -1
-        obs_f, _ = flag.reset(seed=SEED)
-        obs_i, _ = ids.reset(seed=SEED)
+        obs_f, info_f = flag.reset(seed=SEED)
+        obs_i, info_i = ids.reset(seed=SEED)
         assert obs_f["held"].tolist() == [0] and obs_i["held"].tolist() == [-1]
+        assert (info_f["held"], info_i["held"]) == (0, -1)  # gymnasium's info says the same
         truth = ids.ground_truth()
         layout = ids.layout
         item = next(o for o in truth.objects
@@ -139,9 +140,10 @@ def test_held_is_a_flag_on_vision_and_an_id_elsewhere() -> None:
         for env in (flag, ids):
             env.teleport_robot(*access.access)
         obs_f, _, _, _, info = flag.step(make_action("pick", target=item.id))
-        obs_i, _, _, _, _ = ids.step(make_action("pick", target=item.id))
+        obs_i, _, _, _, info_i = ids.step(make_action("pick", target=item.id))
         assert info["action_result"]["ok"], info["action_result"]
         assert obs_f["held"].tolist() == [1] and obs_i["held"].tolist() == [item.id]
+        assert (info["held"], info_i["held"]) == (1, item.id)
         assert flag.observation_space.contains(obs_f)
     finally:
         flag.close()

@@ -32,6 +32,10 @@ does nothing scores about 0 on every component).
   counts invalid actions and protocol errors, half of each collision, and 5 per deadlock
   (30 steps without progress) and per MuJoCo warning (at most 3).
 
+On a split without a detector (``vision``) the world-model files and the ``tools_for``
+answers use the agent's own ids: ``_matching`` renames them to the true ids they pair with
+by category and position before any of the above is computed (``own_ids``).
+
 The card's notes say where credit was thrown away (``credit_notes``), with the audit's own
 checks (``plugins.track1.audit``: ``detection_flags``, ``world_model_flags``) on what the
 episode recorded it showed the agent: an ``exception_detected`` before the exception, ids

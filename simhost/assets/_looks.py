@@ -58,6 +58,22 @@ def _gen(name: str, texture: str | None, rgba: RGBA | None = WOOD) -> Part:
     return Part(f"{name}.obj", texture, rgba)
 
 
+def _case(w: float, d: float, h: float, texture: str = "wood_light.png") -> tuple[Part, ...]:
+    """An open-front case of wooden panels at a container's default size (front +y): the
+    package case meshes carry an inner floor above where the house puts the things inside,
+    which would hide them from the camera while they are in view. The bottom panel's top
+    stays below the carcass the things stand on (0.03 m) at any size up to 1.2x."""
+    t, b = 0.03, 0.025
+    boxes = (
+        ((-w / 2, -d / 2, 0.0), (w / 2, d / 2, b)),  # bottom
+        ((-w / 2, -d / 2, 0.0), (w / 2, -d / 2 + t, h)),  # back
+        ((-w / 2, -d / 2, 0.0), (-w / 2 + t, d / 2, h)),  # sides
+        ((w / 2 - t, -d / 2, 0.0), (w / 2, d / 2, h)),
+        ((-w / 2, -d / 2, h - t), (w / 2, d / 2, h)),  # top
+    )
+    return tuple(Part(None, texture, WOOD, box) for box in boxes)
+
+
 _TABLE = (
     Part("mw_table_top.stl", "wood_light.png", WOOD, ((-0.6, -0.4, 0.71), (0.6, 0.4, 0.75)), 90),
     Part("mw_table_legs.stl", "wood_dark.png", WOOD, ((-0.56, -0.36, 0.0), (0.56, 0.36, 0.71))),
@@ -125,15 +141,7 @@ TRACK1_LOOKS: dict[str, Look] = {
         )
     ),
     "cabinet": Look(
-        (
-            Part(
-                "gk_cabinet.stl",
-                "wood_light.png",
-                WOOD,
-                ((-0.4, -0.25, 0.0), (0.4, 0.22, 0.9)),
-                180,
-            ),
-        ),
+        _case(0.8, 0.5, 0.9),
         lid=(
             Part(
                 "gk_cabinet_door.stl",
@@ -150,15 +158,7 @@ TRACK1_LOOKS: dict[str, Look] = {
         ),
     ),
     "drawer": Look(
-        (
-            Part(
-                "mw_drawer_case.stl",
-                "wood_light.png",
-                WOOD,
-                ((-0.35, -0.25, 0.0), (0.35, 0.22, 0.7)),
-                180,
-            ),
-        ),
+        _case(0.7, 0.5, 0.7),
         lid=(_gen("drawer_fronts", "wood_light.png"),)
         + tuple(
             Part(

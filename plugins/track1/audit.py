@@ -43,7 +43,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from plugins._audit import STEP_SLACK
-from schemas import ActionResult, HostMessage, LogRecord, WorldModel
+from schemas import ActionResult, HostMessage, LogRecord, SchemaError, WorldModel, parse_json
 from simhost._records import (
     ExceptionArmedEvent,
     ExceptionEvent,
@@ -453,9 +453,9 @@ def check_episode(shown: Shown, *, scenario_params: Mapping[str, Any],
         blob = snap.files.get("world_model.json")
         if blob is None:
             continue
-        try:
-            model = WorldModel.model_validate_json(blob)
-        except ValueError:
+        try:  # graded as the score grades it: keys nothing reads ignored, not refused
+            model = parse_json(blob, WorldModel, source=f"{snap.name}/world_model.json")
+        except SchemaError:
             flags.append(Flag("unreadable_file", "note", f"{snap.name}: world_model.json "
                               "does not parse: not checked", snap.step))
             continue

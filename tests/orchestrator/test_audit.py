@@ -74,6 +74,23 @@ def test_world_model_flags_what_was_never_shown() -> None:
     assert early["unseen_state"] == ("5",)  # door 9 is unseen then: an id, not a state
 
 
+def test_a_world_model_the_score_grades_is_checked_not_called_unreadable() -> None:
+    """Keys nothing grades are ignored by the audit as by the score: a team's own extra
+    keys do not make its model "unreadable" to the audit."""
+    from plugins.track1.audit import Snapshot, check_episode
+
+    blob = json.dumps({"rooms": ["kitchen"], "agent_state": {"pose": [0, 0, 0]},
+                       "objects": [{"id": 11, "name": "red mug"}]}).encode()  # rooms: names
+    flags = check_episode(_shown(), scenario_params={}, events=[],
+                          snapshots=[Snapshot("final", 10, {"world_model.json": blob})], log=[])
+    checks = {f.check for f in flags}
+    assert "unreadable_file" not in checks and "unseen_id" in checks, flags
+    broken = check_episode(_shown(), scenario_params={}, events=[],
+                           snapshots=[Snapshot("final", 10, {"world_model.json": b"{"})],
+                           log=[])
+    assert [f.check for f in broken] == ["unreadable_file"], broken
+
+
 def test_segmentation_counts_as_shown() -> None:
     import numpy as np
 

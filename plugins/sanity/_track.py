@@ -22,6 +22,7 @@ from pydantic import BaseModel, ConfigDict, SerializerFunctionWrapHandler, model
 
 from plugins._base import EPISODE_LOG, FileRule, Scenario, ScoringInput, TrackPlugin
 from schemas import EndReason, FieldSpec, ScoreCard, WorldModel
+from schemas._io import ignored_note
 from schemas._protocol import ActionResult, HostMessage
 from simhost._episode import (
     EpisodeOutcome,
@@ -386,5 +387,7 @@ class SanityTrack(TrackPlugin[SanityScenario, SanityOutcome]):
             components=components,
             weights=weights,
             metrics=metrics,
-            notes=tuple(notes),
+            notes=tuple(notes) + tuple(
+                n for n in (ignored_note(name, parsed) for name, parsed in data.files.items())
+                if n is not None),
         )

@@ -178,3 +178,21 @@ def test_a_strict_file_reports_an_unknown_key_once_as_an_error() -> None:
     text = str(got.value)
     assert text.count("- workerz: unknown key") == 1, text
     assert "ignored" not in text, text
+
+
+def test_the_sanity_score_card_notes_the_keys_it_ignored() -> None:
+    plugin = load_track("sanity")
+    parsed, checks = plugin.verify_files({
+        "world_model.json": json.dumps(PORTED).encode(),
+        "episode_log.jsonl": b'{"step": 0, "event": "stage"}\n'})
+    assert all(c.ok for c in checks), checks
+    from plugins import ScoringInput, granted_budgets
+    from schemas._result import EpisodeStatus
+
+    scenario = plugin.make_scenario(seed=1, split="standard", params={}, index=0)
+    card = plugin.score(ScoringInput(
+        scenario=scenario, status=EpisodeStatus.COMPLETED, end_reason="completed",
+        stages_reached=(), outcome=None, files=parsed, snapshots={}, steps=0,
+        invalid_actions=0, protocol_errors=0, stage_budgets_s=granted_budgets(plugin.stages())))
+    assert any(n.startswith("world_model.json: not graded, ignored: agent_state")
+               for n in card.notes), card.notes

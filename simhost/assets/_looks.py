@@ -58,11 +58,13 @@ def _gen(name: str, texture: str | None, rgba: RGBA | None = WOOD) -> Part:
     return Part(f"{name}.obj", texture, rgba)
 
 
-def _case(w: float, d: float, h: float, texture: str = "wood_light.png") -> tuple[Part, ...]:
-    """An open-front case of wooden panels at a container's default size (front +y): the
-    package case meshes carry an inner floor above where the house puts the things inside,
-    which would hide them from the camera while they are in view. The bottom panel's top
-    stays below the carcass the things stand on (0.03 m) at any size up to 1.2x."""
+def _case(w: float, d: float, h: float, texture: str = "wood_light.png",
+          rgba: RGBA = WOOD) -> tuple[Part, ...]:
+    """An open-front case of panels at a container's default size (front +y): the package
+    case meshes carry an inner floor above where the house puts the things inside, and the
+    generated fridge body is a closed shell; either would hide those things from the camera
+    while they are in view. The bottom panel's top stays below the carcass the things stand
+    on (0.03 m) at any size up to 1.2x."""
     t, b = 0.03, 0.025
     boxes = (
         ((-w / 2, -d / 2, 0.0), (w / 2, d / 2, b)),  # bottom
@@ -71,7 +73,7 @@ def _case(w: float, d: float, h: float, texture: str = "wood_light.png") -> tupl
         ((w / 2 - t, -d / 2, 0.0), (w / 2, d / 2, h)),
         ((-w / 2, -d / 2, h - t), (w / 2, d / 2, h)),  # top
     )
-    return tuple(Part(None, texture, WOOD, box) for box in boxes)
+    return tuple(Part(None, texture, rgba, box) for box in boxes)
 
 
 _TABLE = (
@@ -172,7 +174,7 @@ TRACK1_LOOKS: dict[str, Look] = {
         ),
     ),
     "fridge": Look(
-        (_gen("fridge_body", "steel_brushed.png", METAL),),
+        _case(0.7, 0.7, 1.8, "steel_brushed.png", METAL),
         lid=(
             _gen("fridge_doors", "steel_brushed.png", METAL),
             Part(

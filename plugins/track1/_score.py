@@ -52,7 +52,14 @@ from typing import Any
 from plugins._audit import HostSteps, log_step_findings
 from plugins._base import ScoringInput
 from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, shown_from
-from plugins.track1._matching import IdMatch, match, matched, rename, rename_answer
+from plugins.track1._matching import (
+    UNMATCHED,
+    IdMatch,
+    match,
+    matched,
+    rename,
+    rename_answer,
+)
 from plugins.track1._queries import f1, score_answer
 from plugins.track1._types import ExceptionRecord, GradedQuery, Track1Outcome, Track1Scenario
 from plugins.track1.audit import (
@@ -329,7 +336,11 @@ def credit_notes(data: ScoringInput[Track1Scenario, Track1Outcome], o: Track1Out
     snapshot = data.snapshot(EXPLORATION, "world_model.json", WorldModel)
     graded = snapshot if graded is None else graded
     notes = detection_notes(o, log, data.scenario.params)
-    notes += unseen_notes(graded, shown_from(o.shown), o.stage_steps.get(EXPLORATION, o.steps))
+    if own_ids(data):  # vision: nothing was shown by id; entries pair by position instead
+        notes += unmatched_notes(graded)
+    else:
+        notes += unseen_notes(graded, shown_from(o.shown),
+                              o.stage_steps.get(EXPLORATION, o.steps))
     notes += log_step_notes(o, log)
     notes += query_notes(o)
     for name, parsed in data.files.items():
@@ -343,17 +354,32 @@ def credit_notes(data: ScoringInput[Track1Scenario, Track1Outcome], o: Track1Out
     return notes
 
 
+def unmatched_notes(graded: WorldModel | None) -> list[str]:
+    """On a split without ids (``vision``): the entries of the graded exploration model
+    that paired with nothing in the house by category and position (``_matching``)."""
+    if graded is None:
+        return []
+    entries = [e.id for e in (*graded.doors, *graded.containers, *graded.objects)]
+    left = [str(i).removeprefix(UNMATCHED) for i in entries
+            if isinstance(i, str) and i.startswith(UNMATCHED)]
+    if not left:
+        return []
+    return [f"world model: {len(left)} of {len(entries)} entries match nothing in the house "
+            f"by category and position ({', '.join(left[:8])}{', …' if len(left) > 8 else ''}"
+            "): graded as unknown ids"]
+
+
 def own_ids(data: ScoringInput[Track1Scenario, Track1Outcome]) -> bool:
     """Whether the split shows no ids (no detector: ``vision``): the files then use the
     agent's own ids, which the score matches to the truth's (``_matching``)."""
     from pydantic import ValidationError
 
-    hidden = getattr(data.scenario, "hidden", None)
-    if not isinstance(hidden, Track1Scenario):
-        try:
-            hidden = Track1Scenario.model_validate(data.scenario.params)
-        except ValidationError:
-            return False
+    from plugins.track1._track import Track1
+
+    try:
+        hidden = Track1().hidden(data.scenario)
+    except ValidationError:
+        return False
     return not hidden.split.config.detections
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from plugins.track1._matching import UNMATCHED, match, matched, rename, rename_answer
-from plugins.track1._score import model_parts
+from plugins.track1._score import model_parts, unmatched_notes
 from schemas import Affordance, Connection, ContainerState, DoorState, ObjectEntry, Room, WorldModel
 from simhost.track1 import HouseEnv, HouseTruth
 
@@ -97,3 +97,9 @@ def test_a_thing_written_far_off_matches_nothing(truth: HouseTruth) -> None:
     parts = model_parts(renamed, truth, ())
     assert parts["states"] < 1.0 and parts["affordances"] < 1.0
     assert matched(None, truth) is None
+    # The score card says so in the split's own terms (no ids were shown to be matched).
+    [note] = unmatched_notes(renamed)
+    entries = len(own.doors) + len(own.containers) + len(own.objects)
+    assert note.startswith(f"world model: 2 of {entries} entries match nothing in the house")
+    assert str(ids[tool]) in note and str(ids[box.id]) in note
+    assert unmatched_notes(rename(own, match(own, truth))) == []

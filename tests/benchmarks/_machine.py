@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import importlib.metadata
+import json
 import os
 import platform
 import signal
@@ -66,3 +67,22 @@ def reap(procs: list[subprocess.Popen[bytes]]) -> None:
             if f is not None:
                 f.close()
     procs.clear()
+
+
+def run_child(argv: list[str], procs: list[subprocess.Popen[bytes]], *, env: dict[str, str],
+              cwd: Path, timeout_s: float) -> dict:
+    """Runs one benchmark child to its end and returns the JSON of its last stdout line;
+    RuntimeError (with its stderr's tail) when it fails or outlives ``timeout_s``. The child
+    is in ``procs`` while it runs, so that an interrupted run reaps it."""
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         stdin=subprocess.DEVNULL, env=env, cwd=str(cwd))
+    procs.append(p)
+    try:
+        out, err = p.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        raise RuntimeError(f"timed out after {timeout_s:.0f} s") from None
+    finally:
+        reap(procs)
+    if p.returncode != 0:
+        raise RuntimeError(f"rc {p.returncode}:\n{err.decode(errors='replace')[-2000:]}")
+    return dict(json.loads(out.decode().strip().splitlines()[-1]))

@@ -43,7 +43,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from _machine import die_with_parent, load_average, machine_line, reap  # noqa: E402  (sibling)
+from _machine import die_with_parent, load_average, machine_line, reap, run_child  # noqa: E402  (sibling)
 
 ROOT = Path(__file__).resolve().parents[2]
 KINDS = ("standard", "challenge")
@@ -241,24 +241,7 @@ class Runner:
             "--warmup",
             str(warmup),
         ]
-        p = subprocess.Popen(
-            argv,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            stdin=subprocess.DEVNULL,
-            env=self.env,
-            cwd=str(ROOT),
-        )
-        self.procs.append(p)
-        try:
-            out, err = p.communicate(timeout=self.timeout_s)
-        except subprocess.TimeoutExpired:
-            raise RuntimeError(f"timed out after {self.timeout_s:.0f} s") from None
-        finally:
-            self.kill_all()
-        if p.returncode != 0:
-            raise RuntimeError(f"rc {p.returncode}:\n{err.decode(errors='replace')[-2000:]}")
-        return json.loads(out.decode().strip().splitlines()[-1])
+        return run_child(argv, self.procs, env=self.env, cwd=ROOT, timeout_s=self.timeout_s)
 
 
 def _q(sorted_ns: list[int], p: float) -> float:

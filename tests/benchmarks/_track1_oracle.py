@@ -10,9 +10,10 @@ the tasks are solvable within the step budgets.
 
 On a split that acts by pixel (``vision``) it acts and writes through the same channels as
 any agent there: it faces what it acts on (sweeping a little when it is not in frame) and
-names the pixel of the last frame nearest the centre of its mask; its files, plan and
-answers use ids of its own (the true ids under a fixed permutation), which the score
-matches back by position (``plugins.track1._matching``).
+names the pixel of the last frame nearest the centre of its mask (from an item it first
+edges back in small steps: ``ITEM_SEARCH``); its files, plan and answers use ids of its own
+(the true ids under a fixed permutation), which the score matches back by position
+(``plugins.track1._matching``).
 
 ``DoNothing`` ends each stage at once and sends ``done``.
 """
@@ -48,6 +49,13 @@ SEARCH = ((0.0, 0.0), (0.0, 0.3), (0.0, -0.3), (0.3, 0.0), (0.5, 0.0), (0.5, 0.3
           (0.3, 0.3), (0.3, -0.3))
 """By pixel: (step back from an item, m; turn, rad) from the access pose, tried in turn
 while the target is not in frame."""
+EDGE = 0.02
+ITEM_SEARCH = ((0.0, 0.0), *((EDGE * k, 0.0) for k in range(1, 9)), *SEARCH[1:])
+"""By pixel, for an item: first edging straight back from the access pose in ``EDGE``
+steps (0.16 m in all), then ``SEARCH``. The camera looks down at 25 degrees with a 75-degree
+field, so the frame's lower edge is 62.5 degrees below the eye: an item at the bottom of a
+deep open container (a bin, 0.5 m) shows over its rim only from a band of stand-offs a few
+centimetres wide just behind the access pose, which the coarse steps of ``SEARCH`` miss."""
 
 
 def world_model(truth: HouseTruth, step: int,
@@ -273,7 +281,8 @@ class Oracle:
             else door.position if door is not None else None
         if where is None:
             return at, yaw
-        back, turn = SEARCH[self.sweep % len(SEARCH)]
+        search = ITEM_SEARCH if obj is not None else SEARCH
+        back, turn = search[self.sweep % len(search)]
         d = max(1e-6, math.dist(at, where))
         if obj is not None and back:
             at = (at[0] - back * (where[0] - at[0]) / d, at[1] - back * (where[1] - at[1]) / d)
@@ -281,14 +290,22 @@ class Oracle:
 
     def through_pixels(self, action: dict[str, Any]) -> dict[str, Any]:
         """An id-addressed action as the pixel split takes it: the target's pixel (the tool
-        is the held item); when it is not in frame, the next yaw of the search sweep."""
+        is the held item); when it is not in frame, the next pose of the search: a step
+        straight back of a few centimetres is made here, exactly (the drive stops within
+        0.06 m of its goal), any other pose is driven to from the next call on."""
         if "target" not in action:
             return action
-        px = pixel_of(self.ep.env.last_segmentation(), int(action["target"]))
+        target = int(action["target"])
+        px = pixel_of(self.ep.env.last_segmentation(), target)
         if px is not None:
             self.sweep = 0
             return {"primitive": action["primitive"], "target_px": px}
+        search = ITEM_SEARCH if self.truth().object(target) is not None else SEARCH
+        (back0, turn0), (back1, turn1) = (search[(self.sweep + k) % len(search)] for k in (0, 1))
         self.sweep += 1
+        if turn0 == turn1 == 0.0 and 0.0 < back1 - back0 <= 2 * EDGE:
+            return {"primitive": "move",
+                    "move": [-(back1 - back0) / self.ep.env.config.max_forward, 0.0]}
         return {"primitive": "noop"}
 
     # ------------------------------------------------------------------ execution

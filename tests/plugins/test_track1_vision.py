@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import secrets
+import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -229,3 +230,35 @@ def test_vision_queries_name_no_ids_and_its_files_are_matched() -> None:
             assert bool(named) is not matched, split
         finally:
             ep.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("seed", "index"), [(22003, 3), (24011, 11)])
+def test_the_oracle_picks_by_pixel_what_lies_in_a_bin(seed: int, index: int) -> None:
+    """The object relocation puts the fetched apple into an open bin (0.5 m deep): the
+    detector's rays see it from anywhere in reach with the bin's opening in sight, the camera
+    (its frame's lower edge 62.5 degrees below the eye) only from a band a few centimetres
+    wide behind the bin's access pose. The oracle edges back until it shows, then picks it
+    by its pixel and completes the task."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from _track1_harness import run_agent
+    from _track1_oracle import Oracle
+
+    picked_from: list[str] = []
+
+    class Watched(Oracle):
+        def through_pixels(self, action: dict[str, Any]) -> dict[str, Any]:
+            out = super().through_pixels(action)
+            if out.get("primitive") == "pick":
+                truth = self.truth()
+                obj = truth.object(int(action["target"]))
+                assert obj is not None
+                rec = truth.receptacle(obj.receptacle)
+                assert rec is not None
+                picked_from.append(rec.category)
+            return out
+
+    played = run_agent(Watched, "vision", seed, index=index)
+    assert played.error == "" and played.exception == "object_relocation", played
+    assert "bin" in picked_from, picked_from
+    assert played.card.metrics["task_success"] == 1.0, played.card

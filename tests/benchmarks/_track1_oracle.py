@@ -45,17 +45,27 @@ RES = 0.05
 ROBOT = 0.25 + 0.04  # the base's radius (simhost.track1's ROBOT_RADIUS) plus a margin
 TURN = math.pi / 4
 STEP = 0.5
-SEARCH = ((0.0, 0.0), (0.0, 0.3), (0.0, -0.3), (0.3, 0.0), (0.5, 0.0), (0.5, 0.3), (0.5, -0.3),
-          (0.3, 0.3), (0.3, -0.3))
-"""By pixel: (step back from an item, m; turn, rad) from the access pose, tried in turn
-while the target is not in frame."""
+ASIDE = ((0.0, 0.2, 0.0), (0.0, -0.2, 0.0), (0.0, 0.35, 0.0), (0.0, -0.35, 0.0))
+SEARCH = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.3), (0.0, 0.0, -0.3), *ASIDE)
+"""By pixel: (step back, m; step aside, m; turn, rad) from the access pose, tried in turn
+while the target is not in frame or the host refuses its pixel (``REFUSED``; refused as
+``not_visible``, the search goes on at once with ``ASIDE``: no turn on the spot changes the
+line of sight, which the host draws from the robot's centre); poses in an obstacle's margin
+are passed over."""
 EDGE = 0.02
-ITEM_SEARCH = ((0.0, 0.0), *((EDGE * k, 0.0) for k in range(1, 9)), *SEARCH[1:])
+ITEM_SEARCH = ((0.0, 0.0, 0.0), *((EDGE * k, 0.0, 0.0) for k in range(1, 9)),
+               (0.0, 0.0, 0.3), (0.0, 0.0, -0.3), (0.3, 0.0, 0.0), (0.5, 0.0, 0.0),
+               (0.5, 0.0, 0.3), (0.5, 0.0, -0.3), (0.3, 0.0, 0.3), (0.3, 0.0, -0.3), *ASIDE)
 """By pixel, for an item: first edging straight back from the access pose in ``EDGE``
-steps (0.16 m in all), then ``SEARCH``. The camera looks down at 25 degrees with a 75-degree
-field, so the frame's lower edge is 62.5 degrees below the eye: an item at the bottom of a
-deep open container (a bin, 0.5 m) shows over its rim only from a band of stand-offs a few
-centimetres wide just behind the access pose, which the coarse steps of ``SEARCH`` miss."""
+steps (0.16 m in all), then turns and farther stand-offs (a low item in an open drawer
+shows only from farther), then ``ASIDE``. The camera looks down at 25 degrees with a
+75-degree field, so the frame's lower edge is 62.5 degrees below the eye: an item at the
+bottom of a deep open container (a bin, 0.5 m) shows over its rim only from a band of
+stand-offs a few centimetres wide just behind the access pose."""
+REFUSED = frozenset({"not_visible", "out_of_reach", "nothing_there"})
+"""Refusals of an action by pixel that send the search on: the host's view rule is line of
+sight from the robot's centre to fixed points of the thing, so a thing in frame may still be
+out of view (say an open fridge door across the line, nearer than the camera draws)."""
 
 
 def world_model(truth: HouseTruth, step: int,
@@ -201,7 +211,9 @@ class Oracle:
         self.opened: set[int] = set()
         self.by_pixel = episode.env.config.actions_by == "pixel"
         self.ids: dict[int, int] = {}
-        self.sweep = 0  # vision: how far the search for the target in frame has turned
+        self.sweep = 0  # vision: how far the search for the target in frame has gone
+        self.refused = ""  # vision: why the last action by pixel was refused (REFUSED)
+        self._aimed: tuple[tuple[float, float], tuple[float, float]] | None = None
 
     def own(self, instance: int) -> int:
         """The id the oracle writes for a true id (itself where the split shows ids)."""
@@ -244,6 +256,10 @@ class Oracle:
                 action = self.through_pixels(action)
             ts = env.step(action or {"primitive": "done"})
             self.step += 1
+            if action is not None and "target_px" in action and ts.action is not None:
+                self.refused = ts.action.reason if ts.action.reason in REFUSED else ""
+                if ts.action.ok:
+                    self.sweep = 0
             rec = self.ep.exception.record
             if rec is not None and not self.reported:
                 self.reported = True
@@ -269,9 +285,8 @@ class Oracle:
     def aim(self, at: tuple[float, float], entity: int, yaw: float
             ) -> tuple[tuple[float, float], float]:
         """Where to act from and facing which way: ``at`` and ``yaw`` where the split takes
-        ids; by pixel, toward the thing (its mask then lies in frame), stepping back from an
-        item and turning a little as the search (``SEARCH``) goes on while it is not in
-        frame (a low item in an open drawer shows only from farther than the access pose)."""
+        ids; by pixel, toward the thing (its mask then lies in frame), from the pose of the
+        search (``ITEM_SEARCH``, ``SEARCH``) it has come to."""
         if not self.by_pixel:
             return at, yaw
         truth = self.truth()
@@ -281,29 +296,56 @@ class Oracle:
             else door.position if door is not None else None
         if where is None:
             return at, yaw
-        search = ITEM_SEARCH if obj is not None else SEARCH
-        back, turn = search[self.sweep % len(search)]
+        self._aimed = (at, where)
+        search = self._search(entity)
+        return self._pose(at, where, search[self.sweep % len(search)])
+
+    def _search(self, entity: int) -> tuple[tuple[float, float, float], ...]:
+        return ITEM_SEARCH if self.truth().object(entity) is not None else SEARCH
+
+    @staticmethod
+    def _pose(at: tuple[float, float], where: tuple[float, float],
+              entry: tuple[float, float, float]) -> tuple[tuple[float, float], float]:
+        """A search entry's pose: back from ``at`` away from ``where``, aside to its left
+        (negative: right), facing ``where`` turned by the entry's turn."""
+        back, aside, turn = entry
         d = max(1e-6, math.dist(at, where))
-        if obj is not None and back:
-            at = (at[0] - back * (where[0] - at[0]) / d, at[1] - back * (where[1] - at[1]) / d)
-        return at, math.atan2(where[1] - at[1], where[0] - at[0]) + turn
+        ux, uy = (where[0] - at[0]) / d, (where[1] - at[1]) / d
+        x, y = at[0] - back * ux - aside * uy, at[1] - back * uy + aside * ux
+        return (x, y), math.atan2(where[1] - y, where[0] - x) + turn
+
+    def _free(self, entry: tuple[float, float, float]) -> bool:
+        """Whether the robot fits at an entry's pose (the access pose always counts)."""
+        if self._aimed is None or entry[:2] == (0.0, 0.0):
+            return True
+        (x, y), _ = self._pose(*self._aimed, entry)
+        grid = self.grid()
+        return bool(not grid.blocked[grid.cell(x, y)])
 
     def through_pixels(self, action: dict[str, Any]) -> dict[str, Any]:
         """An id-addressed action as the pixel split takes it: the target's pixel (the tool
-        is the held item); when it is not in frame, the next pose of the search: a step
-        straight back of a few centimetres is made here, exactly (the drive stops within
-        0.06 m of its goal), any other pose is driven to from the next call on."""
+        is the held item); when it is not in frame, or its pixel was just refused as out of
+        view, the next pose of the search that the robot fits in: a step straight back of a
+        few centimetres is made here, exactly (the drive stops within 0.06 m of its goal),
+        any other pose is driven to from the next call on (the search starts over when an
+        action by pixel succeeds)."""
         if "target" not in action:
             return action
         target = int(action["target"])
         px = pixel_of(self.ep.env.last_segmentation(), target)
-        if px is not None:
-            self.sweep = 0
+        if px is not None and not self.refused:
             return {"primitive": action["primitive"], "target_px": px}
-        search = ITEM_SEARCH if self.truth().object(target) is not None else SEARCH
-        (back0, turn0), (back1, turn1) = (search[(self.sweep + k) % len(search)] for k in (0, 1))
+        search = self._search(target)
+        before = search[self.sweep % len(search)]
+        aside = len(search) - len(ASIDE)
+        if self.refused == "not_visible" and self.sweep % len(search) < aside:
+            self.sweep += aside - self.sweep % len(search) - 1
+        self.refused = ""
         self.sweep += 1
-        if turn0 == turn1 == 0.0 and 0.0 < back1 - back0 <= 2 * EDGE:
+        while self.sweep % len(search) and not self._free(search[self.sweep % len(search)]):
+            self.sweep += 1
+        (back0, aside0, turn0), (back1, aside1, turn1) = before, search[self.sweep % len(search)]
+        if aside0 == aside1 == turn0 == turn1 == 0.0 and 0.0 < back1 - back0 <= 2 * EDGE:
             return {"primitive": "move",
                     "move": [-(back1 - back0) / self.ep.env.config.max_forward, 0.0]}
         return {"primitive": "noop"}

@@ -232,21 +232,31 @@ def test_vision_queries_name_no_ids_and_its_files_are_matched() -> None:
             ep.close()
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize(("seed", "index"), [(22003, 3), (24011, 11)])
-def test_the_oracle_picks_by_pixel_what_lies_in_a_bin(seed: int, index: int) -> None:
-    """The object relocation puts the fetched apple into an open bin (0.5 m deep): the
-    detector's rays see it from anywhere in reach with the bin's opening in sight, the camera
-    (its frame's lower edge 62.5 degrees below the eye) only from a band a few centimetres
-    wide behind the bin's access pose. The oracle edges back until it shows, then picks it
-    by its pixel and completes the task."""
+
+def _oracle_on_vision(seed: int, index: int) -> tuple[Any, list[str], list[tuple[str, str]]]:
+    """The calibration oracle played on ``vision`` (the seed's episode index as a campaign
+    gives it), with the receptacle category of each pick it sent by pixel and each refusal
+    (primitive, reason) of an action it sent by pixel."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
     from _track1_harness import run_agent
     from _track1_oracle import Oracle
 
     picked_from: list[str] = []
+    refused: list[tuple[str, str]] = []
 
     class Watched(Oracle):
+        def run(self, env: Any) -> None:
+            step = env.step
+
+            def watched(action: dict[str, Any]) -> Any:
+                ts = step(action)
+                if "target_px" in action and ts.action is not None and not ts.action.ok:
+                    refused.append((action["primitive"], ts.action.reason))
+                return ts
+
+            env.step = watched
+            super().run(env)
+
         def through_pixels(self, action: dict[str, Any]) -> dict[str, Any]:
             out = super().through_pixels(action)
             if out.get("primitive") == "pick":
@@ -258,7 +268,30 @@ def test_the_oracle_picks_by_pixel_what_lies_in_a_bin(seed: int, index: int) -> 
                 picked_from.append(rec.category)
             return out
 
-    played = run_agent(Watched, "vision", seed, index=index)
+    return run_agent(Watched, "vision", seed, index=index), picked_from, refused
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("seed", "index"), [(22003, 3), (24011, 11)])
+def test_the_oracle_picks_by_pixel_what_lies_in_a_bin(seed: int, index: int) -> None:
+    """The object relocation puts the fetched apple into an open bin (0.5 m deep): the
+    detector's rays see it from anywhere in reach with the bin's opening in sight, the camera
+    (its frame's lower edge 62.5 degrees below the eye) only from a band a few centimetres
+    wide behind the bin's access pose. The oracle edges back until it shows, then picks it
+    by its pixel and completes the task."""
+    played, picked_from, _ = _oracle_on_vision(seed, index)
     assert played.error == "" and played.exception == "object_relocation", played
     assert "bin" in picked_from, picked_from
     assert played.card.metrics["task_success"] == 1.0, played.card
+
+
+@pytest.mark.slow
+def test_the_oracle_steps_aside_when_its_pixel_is_refused_as_out_of_view() -> None:
+    """Seed 25003: at the access pose of the cabinet to open, the fridge's open door stands
+    across the host's line of sight (drawn from the robot's centre) though the frame shows
+    the cabinet; the pixel is refused as ``not_visible``. The oracle steps aside, opens the
+    cabinet, picks from it and completes the task in a few refusals."""
+    played, _, refused = _oracle_on_vision(25003, 3)
+    assert played.error == "" and played.card.metrics["task_success"] == 1.0, played.card
+    assert ("open", "not_visible") in refused, refused
+    assert len(refused) <= 6 and played.card.total >= 0.95, (refused, played.card)

@@ -82,3 +82,25 @@ def test_every_other_baseline_runs_in_its_container(docker_engine: Any, images: 
                            source="world_model.json")
         assert model.rooms, "an empty world model"
         assert result.score.metrics["model_verification"] > 0.1, result.score.metrics
+
+
+def test_the_learned_vision_baseline_plays_the_vision_split_in_its_container(
+        docker_engine: Any, images: dict, runs_dir: Path) -> None:
+    """The vision split's baseline (examples/track1_vision, built FROM the structured
+    planner's image): pixels in, its detector's findings under ids of its own, actions by
+    pixel; what it maps is matched to the truth by position, and it finds real things."""
+    image = "eagc/track1-vision:latest"
+    assert image in images
+    spec = EpisodeSpec(track="track1", image=image, seed=1003, split="vision",
+                       runs_dir=runs_dir, exit_grace_s=10.0,
+                       limits=Limits(time_scale=0.1, max_steps_per_stage=40, memory_mb=1024))
+    result = run_episode(spec, DockerRuntime(docker_engine))
+    assert result.status is EpisodeStatus.COMPLETED, result.failure
+    assert result.stages_reached == ("exploration", "planning", "execution")
+    assert {f.name for f in result.files if f.ok} == {"world_model.json", "episode_log.jsonl"}
+    host = Path(result.episode_dir or "") / "host"
+    model = parse_json((host / "output" / "world_model.json").read_bytes(), WorldModel,
+                       source="world_model.json")
+    assert model.rooms and (model.objects or model.containers), "the detector found nothing"
+    assert result.score.metrics["model_verification"] > 0.1, result.score.metrics
+    assert result.stats.latency_ms_median is not None and result.stats.peak_memory_bytes

@@ -44,12 +44,20 @@ def _rgba(text: str) -> np.ndarray:
     return np.array([float(v) for v in text.split()], dtype=np.float32)
 
 
+EYE_NEAR = 0.05
+"""The camera's near plane (metres): what is closer to the eye is not drawn."""
+
+
 class HouseSim:
     """MuJoCo model and data of one house, with name lookups and guarded access."""
 
     def __init__(self, layout: HouseLayout, *, offscreen: tuple[int, int] = (640, 480)) -> None:
         self.layout = layout
         self.model = mujoco.MjModel.from_xml_string(build_mjcf(layout, offscreen=offscreen))
+        # MJCF gives the near plane as a share of the model's extent (0.02 is ~0.3 m in a
+        # house: an open lid before the eye would go undrawn while the host's line of sight
+        # meets it); the eye's is 5 cm whatever the house's size.
+        self.model.vis.map.znear = EYE_NEAR / self.model.stat.extent
         self.data = mujoco.MjData(self.model)
         m = self.model
         name = mujoco.mjtObj

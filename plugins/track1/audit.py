@@ -29,8 +29,9 @@ Then:
   otherwise (a false alarm of the right type may be luck); another type is a false alarm,
   a note (the score already charges it).
 
-A split that hands over no ids (a vision-only level) would need a comparison by position
-and category instead; no such split exists yet, and these checks say nothing about one.
+On a split that hands over no ids (``vision``) the ids of a world model are the agent's
+own: the id and hidden-state checks do not apply there (what would they be compared with?)
+and are left out, with a note; the room check stays (the room sign shows room ids).
 """
 
 from __future__ import annotations
@@ -252,7 +253,7 @@ def _spans(ids: Sequence[int]) -> str:
 
 
 def world_model_flags(model: WorldModel, shown: Shown, *, step: int,
-                      where: str) -> list[Flag]:
+                      where: str, own_ids: bool = False) -> list[Flag]:
     """What ``model`` holds that nothing had shown by ``step`` (module doc): at most one
     flag per check (ids, rooms, states), each listing what it found.
 
@@ -261,7 +262,11 @@ def world_model_flags(model: WorldModel, shown: Shown, *, step: int,
         shown: what the agent was shown over the whole episode (first step of each item).
         step: the host's step count when the snapshot was taken.
         where: the snapshot's name in the messages (e.g. ``exploration``).
+        own_ids: the split shows no ids (``vision``): the model's are the agent's own, and
+            only its rooms are checked.
     """
+    if own_ids:
+        return _room_flags(model, shown, step=step, where=where)
     flags: list[Flag] = []
     ids: dict[int, str] = {}
     for what, entries in (("door", model.doors), ("container", model.containers),
@@ -285,22 +290,7 @@ def world_model_flags(model: WorldModel, shown: Shown, *, step: int,
         flags.append(Flag("unseen_id", "flag", f"{where}: world_model.json holds "
                           f"{len(never)} id(s) never shown by step {step}: {listed}", step,
                           tuple(str(i) for i in never)))
-    rooms: set[int] = set()
-    for r in model.rooms:
-        x = _as_id(r.id)
-        if x is not None:
-            rooms.add(x)
-    for c in model.connections:
-        rooms.update(x for x in (_as_id(v) for v in c.rooms) if x is not None)
-    for e in (*model.containers, *model.objects):
-        x = _as_id(e.room) if e.room is not None else None
-        if x is not None:
-            rooms.add(x)
-    unseen = sorted(x for x in rooms if x >= 0 and not shown.room_by(x, step))
-    if unseen:
-        flags.append(Flag("unseen_room", "flag", f"{where}: world_model.json holds "
-                          f"{len(unseen)} room(s) never shown by step {step}: "
-                          f"{_spans(unseen)}", step, tuple(f"room {r}" for r in unseen)))
+    flags += _room_flags(model, shown, step=step, where=where)
     states: list[str] = []
     for what, entries in (("door", model.doors), ("container", model.containers)):
         for e in entries:
@@ -314,6 +304,27 @@ def world_model_flags(model: WorldModel, shown: Shown, *, step: int,
                           f"state(s) nothing had shown by step {step}: {', '.join(states)}",
                           step, tuple(x.split()[1] for x in states)))
     return flags
+
+
+def _room_flags(model: WorldModel, shown: Shown, *, step: int, where: str) -> list[Flag]:
+    """The room ids of ``model`` that nothing had shown by ``step``."""
+    rooms: set[int] = set()
+    for r in model.rooms:
+        x = _as_id(r.id)
+        if x is not None:
+            rooms.add(x)
+    for c in model.connections:
+        rooms.update(x for x in (_as_id(v) for v in c.rooms) if x is not None)
+    for e in (*model.containers, *model.objects):
+        x = _as_id(e.room) if e.room is not None else None
+        if x is not None:
+            rooms.add(x)
+    unseen = sorted(x for x in rooms if x >= 0 and not shown.room_by(x, step))
+    if unseen:
+        return [Flag("unseen_room", "flag", f"{where}: world_model.json holds "
+                     f"{len(unseen)} room(s) never shown by step {step}: "
+                     f"{_spans(unseen)}", step, tuple(f"room {r}" for r in unseen))]
+    return []
 
 
 @dataclass(frozen=True)
@@ -434,6 +445,19 @@ class Snapshot:
     files: Mapping[str, bytes]
 
 
+def _own_ids(params: Mapping[str, Any]) -> bool:
+    """Whether the scenario's split shows no ids (no detector: ``vision``)."""
+    from types import SimpleNamespace
+
+    from plugins.track1._track import Track1
+
+    try:
+        hidden = Track1().hidden(SimpleNamespace(params=dict(params)))  # type: ignore[arg-type]
+    except ValidationError:
+        return False
+    return not hidden.split.config.detections
+
+
 def check_episode(shown: Shown, *, scenario_params: Mapping[str, Any],
                   events: Sequence[HostEventModel | Mapping[str, Any]],
                   snapshots: Sequence[Snapshot],
@@ -449,6 +473,10 @@ def check_episode(shown: Shown, *, scenario_params: Mapping[str, Any],
         log: the final ``episode_log.jsonl`` records.
     """
     flags: list[Flag] = []
+    own = _own_ids(scenario_params)
+    if own:
+        flags.append(Flag("own_ids", "note", "the split shows no ids (vision): the world "
+                          "models' ids are the agent's own; only their rooms are checked"))
     for snap in snapshots:
         blob = snap.files.get("world_model.json")
         if blob is None:
@@ -459,6 +487,7 @@ def check_episode(shown: Shown, *, scenario_params: Mapping[str, Any],
             flags.append(Flag("unreadable_file", "note", f"{snap.name}: world_model.json "
                               "does not parse: not checked", snap.step))
             continue
-        flags += world_model_flags(model, shown, step=snap.step, where=snap.name)
+        flags += world_model_flags(model, shown, step=snap.step, where=snap.name,
+                                   own_ids=own)
     flags += detection_flags(log, Timeline.from_log(scenario_params, events))
     return flags

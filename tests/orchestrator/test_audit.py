@@ -91,6 +91,26 @@ def test_a_world_model_the_score_grades_is_checked_not_called_unreadable() -> No
     assert [f.check for f in broken] == ["unreadable_file"], broken
 
 
+def test_on_vision_the_models_ids_are_the_agents_own_and_only_rooms_are_checked() -> None:
+    """The vision split shows no ids: a world model's ids there are the agent's own, so
+    "never shown" would flag every one; the audit says so in a note and checks the rooms."""
+    from plugins.track1.audit import Snapshot, check_episode
+
+    blob = json.dumps({"rooms": [{"id": 2, "type": "kitchen"}, {"id": 4, "type": "hall"}],
+                       "doors": [{"id": 1001, "state": "locked"}],
+                       "objects": [{"id": 1007, "room": 2}]}).encode()
+    plugin = load_track("track1")
+    for split, unseen in (("vision", set()), ("standard", {"unseen_id"})):
+        params = plugin.make_scenario(seed=3, split=split, params={}).params
+        flags = check_episode(_shown(), scenario_params=params, events=[],
+                              snapshots=[Snapshot("final", 10, {"world_model.json": blob})],
+                              log=[])
+        checks = {f.check for f in flags}
+        assert "unseen_room" in checks, (split, flags)  # room 4 was never shown
+        assert checks & {"unseen_id", "unseen_state"} == unseen, (split, flags)
+        assert ("own_ids" in checks) == (split == "vision"), (split, flags)
+
+
 def test_segmentation_counts_as_shown() -> None:
     import numpy as np
 

@@ -8,8 +8,11 @@ instance segmentation rendered through the public gymnasium envs, and run here o
    the floor (the depth back-projected through the eye camera) and box-filtered colour and
    height around it at three scales (a texton-style context, as in Shotton et al.'s
    TextonBoost, here learned by an MLP instead of boosting);
-2. the pixels of one class that touch form a segment (one thing; two touching items of the
-   same class merge);
+2. each furniture pixel takes the class most furniture pixels around it have (wooden boxes
+   look alike up close), and the pixels of one class that touch form a segment (one thing;
+   two touching items of the same class merge); ``furniture`` names a furniture segment
+   (``FURNITURE`` or ``CONTAINERS``) from its size, height, colour and the classes its
+   pixels had;
 3. ``items``: a small item segment's category (``ITEMS``, or none: not an item after all)
    and ``colours`` its colour, from the segment's physical size, shape, resting height and
    colour statistics; ``states``: whether a
@@ -42,6 +45,11 @@ COLOURS = ("red", "green", "blue", "yellow", "white", "black", "orange", "purple
 PIXEL_CLASSES = ("background", "door") + FURNITURE + CONTAINERS + ("item",)
 """What a pixel shows: index 0 floor, walls and nothing; the last a small item."""
 ITEM_CLASS = len(PIXEL_CLASSES) - 1
+BIG = FURNITURE + CONTAINERS
+BIG_CLASSES = np.arange(2, 2 + len(BIG))
+"""The pixel classes of furniture and containers (``PIXEL_CLASSES`` 2..11)."""
+SMOOTH = 7
+"""Half the window (pixels) over which a furniture pixel takes its neighbours' majority."""
 
 EYE = np.array([0.14, 0.0, 1.2])
 """The eye camera's position in the robot's frame (x ahead, y left, z up; metres)."""
@@ -102,6 +110,28 @@ def pixel_features(rgb: np.ndarray, depth: np.ndarray, points: np.ndarray) -> np
 
 
 # ---------------------------------------------------------------------- segments
+def smooth(labels: np.ndarray) -> np.ndarray:
+    """The pixel classes with each furniture or container pixel set to the class most of
+    the furniture pixels around it have: wooden boxes look alike up close, so a counter's
+    pixels come out as patches of counter, shelf and cabinet; one class per piece makes
+    one segment per piece (the ``furniture`` network then names it)."""
+    big = (labels >= BIG_CLASSES[0]) & (labels <= BIG_CLASSES[-1])
+    if not big.any():
+        return labels
+    votes = np.stack([box_mean((labels == c).astype(np.float32), SMOOTH)
+                      for c in BIG_CLASSES])
+    out = labels.copy()
+    out[big] = BIG_CLASSES[votes.argmax(0)][big]
+    return out
+
+
+def big_histogram(raw: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """float32[10]: the share of each furniture and container class among a segment's
+    pixels, before smoothing."""
+    counts = np.bincount(raw[mask].ravel(), minlength=len(PIXEL_CLASSES))[BIG_CLASSES]
+    return (counts / max(1, counts.sum())).astype(np.float32)
+
+
 def segments(labels: np.ndarray) -> tuple[np.ndarray, int]:
     """4-connected components of equal nonzero labels: int32[H, W] (0: none) and their
     count. Runs of a row are joined to the touching runs above (union-find)."""
@@ -271,6 +301,7 @@ class Detector:
             self.colours = Mlp.load(data, "colours")
             self.states = Mlp.load(data, "states")
             self.doorways = Mlp.load(data, "doorways")
+            self.furniture = Mlp.load(data, "furniture")
 
     def classify(self, rgb: np.ndarray, depth: np.ndarray, points: np.ndarray) -> np.ndarray:
         """int32[H, W]: the pixel classes (indices of ``PIXEL_CLASSES``)."""
@@ -283,13 +314,15 @@ class Detector:
     def detect(self, rgb: np.ndarray, depth: np.ndarray) -> list[dict[str, Any]]:
         """The things in one frame, nearest first (see the module)."""
         points = camera_points(depth)
-        labels = self.classify(rgb, depth, points)
+        raw = self.classify(rgb, depth, points)
+        labels = smooth(raw)
         seg, n = segments(labels)
         if n == 0:
             return []
         counts = np.bincount(seg.ravel(), minlength=n + 1)
         found: list[dict[str, Any]] = []
         rows: list[np.ndarray] = []
+        shares: list[np.ndarray] = []
         for k in range(1, n + 1):
             cls = int(labels[seg == k][0]) if counts[k] else 0
             group = "item" if cls == ITEM_CLASS else ("door" if cls == 1 else "big")
@@ -302,6 +335,7 @@ class Detector:
                 continue
             centre = np.median(p[:, :2], axis=0)
             rows.append(segment_features(rgb, depth, points, mask))
+            shares.append(big_histogram(raw, mask))
             if group == "door":  # the doorway's centre, not the panel's (it swings)
                 centre = centre + self.doorways.outputs(
                     door_features(depth, points, mask)[None])[0]
@@ -315,6 +349,11 @@ class Detector:
         if not found:
             return []
         feats = np.stack(rows)
+        big_p = self.furniture.probabilities(np.concatenate([feats, np.stack(shares)], axis=1))
+        for k, d in enumerate(found):
+            if d["kind"] in ("furniture", "container"):
+                d["category"] = BIG[int(big_p[k].argmax())]
+                d["kind"] = "container" if d["category"] in CONTAINERS else "furniture"
         item_p = self.items.probabilities(feats)
         colour_p = self.colours.probabilities(feats)
         state_p = self.states.probabilities(np.concatenate(

@@ -20,7 +20,10 @@ It fits, with scikit-learn's ``MLPClassifier`` (Adam, early stopping on a held-o
   sampled evenly per class from every frame;
 - ``items``: an item segment's category, and ``colours``: its colour, from
   ``segment_features`` of the true masks;
-- ``states``: a door's or container's open/shut state, from the same features and its kind.
+- ``states``: a door's or container's open/shut state, from the same features and its kind;
+- ``furniture``: a furniture segment's category, from the same features and the share of
+  each furniture class among its pixels, on the segments the pixel network finds;
+- ``doorways``: where a door's doorway centre lies from its panel's centre (a regressor).
 
 Prints each network's accuracy on houses it never saw (the last tenth of the houses).
 About 5 minutes on one core for 60 houses; the weights are about 100 kB.
@@ -35,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 from detector import (
+    BIG,
     COLOURS,
     CONTAINERS,
     ITEM_CLASS,
@@ -43,11 +47,13 @@ from detector import (
     WEIGHTS,
     Mlp,
     _kind_code,
+    big_histogram,
     camera_points,
     door_features,
     pixel_features,
     segment_features,
     segments,
+    smooth,
 )
 
 FIRST_SEED = 3 * 10**7
@@ -144,6 +150,8 @@ class Samples:
         self.state_y: list[int] = []
         self.doors: list[np.ndarray] = []
         self.door_y: list[np.ndarray] = []
+        self.big: list[np.ndarray] = []
+        self.big_y: list[int] = []
 
     def add(self, frame: Frame, rng: np.random.Generator) -> None:
         """The pixels of a frame, and each true instance's segment (its mask)."""
@@ -181,25 +189,35 @@ class Samples:
                 self.door_y.append(np.asarray(doorways[int(i)]) - centre)
 
     def add_found(self, frame: Frame, pixels: Mlp) -> None:
-        """The item segments the pixel network finds in a frame, as the detector forms
-        them: each labelled with the item most of its pixels show, else ``none`` (a piece
-        of furniture or wall taken for an item: the item network learns to drop it)."""
+        """The segments the pixel network finds in a frame, as the detector forms them.
+        An item segment is labelled with the item most of its pixels show, else ``none``
+        (a piece of furniture or wall taken for an item: the item network learns to drop
+        it); a furniture segment with the category of the piece most of it shows, if it
+        shows one."""
         rgb, depth, seg, labels, _doorways = frame
         points = camera_points(depth)
         feats = pixel_features(rgb, depth, points)
         h, w, f = feats.shape
-        found = pixels.probabilities(feats.reshape(-1, f)).argmax(-1).reshape(h, w)
-        found = np.where(found == ITEM_CLASS, 1, 0).astype(np.int32)
+        raw = pixels.probabilities(feats.reshape(-1, f)).argmax(-1).reshape(h, w)
+        raw = raw.astype(np.int32)
+        raw[depth > 7.5] = 0
+        found = smooth(raw)
         parts, n = segments(found)
         for k in range(1, n + 1):
             mask = parts == k
-            if mask.sum() < MIN_SEGMENT or float(np.median(depth[mask])) > 5.0:
+            cls = int(found[mask][0])
+            if cls < 2 or mask.sum() < MIN_SEGMENT or float(np.median(depth[mask])) > 5.0:
                 continue
             ids, counts = np.unique(seg[mask], return_counts=True)
             top = int(ids[counts.argmax()])
             category = labels.get(top, (0, "none"))[1]
-            self.items.append(segment_features(rgb, depth, points, mask))
-            self.item_y.append(ITEMS.index(category) if category in ITEMS else len(ITEMS))
+            row = segment_features(rgb, depth, points, mask)
+            if cls == ITEM_CLASS:
+                self.items.append(row)
+                self.item_y.append(ITEMS.index(category) if category in ITEMS else len(ITEMS))
+            elif category in BIG and counts.max() >= 0.5 * mask.sum() and mask.sum() >= 120:
+                self.big.append(np.concatenate([row, big_histogram(raw, mask)]))
+                self.big_y.append(BIG.index(category))
 
 
 def gather(houses: int, seed0: int) -> list[Frame]:
@@ -317,7 +335,8 @@ def main() -> None:
             ("items", (64, 32), (train.items, train.item_y), (test.items, test.item_y)),
             ("colours", (32,), (train.colours, train.colour_y),
              (test.colours, test.colour_y)),
-            ("states", (32,), (train.states, train.state_y), (test.states, test.state_y))):
+            ("states", (32,), (train.states, train.state_y), (test.states, test.state_y)),
+            ("furniture", (64, 32), (train.big, train.big_y), (test.big, test.big_y))):
         net = fit(np.stack(xs), np.array(ys), hidden, seed=1)
         report(name, net, np.array(ys),
                f"accuracy on unseen houses {accuracy(net, np.stack(xt), np.array(yt)):.3f}")

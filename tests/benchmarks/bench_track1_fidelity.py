@@ -2,7 +2,7 @@
 """Track 1 calibration (issue 11): our Table IV beside the paper's, on any seed range.
 
     python tests/benchmarks/bench_track1_fidelity.py [--standard A:B] [--challenge A:B]
-        [--agents sanity,heuristic,memoryfree,lookahead,structured,oracle,nothing]
+        [--agents sanity,heuristic,memoryfree,lookahead,structured,oracle,nothing,vision]
         [--workers 2] [--cap N] [--render] [--json out.json] [--vision A:B]
 
 - ``--standard A:B`` / ``--challenge A:B``: the seeds of each official split (Python range
@@ -23,9 +23,13 @@
   metrics: the parts of the model and recovery scores among them).
 - ``--vision A:B``: also play the ``vision`` extra split (pixels in, actions by pixel,
   files matched to the truth by position) on these seeds with the systems that act by pixel
-  (``oracle``, ``nothing``; the baselines name ids), and print its row: the mean score, task
-  success and model verification, with the checks oracle >= 95 and do-nothing 0 there.
-  Frames are always rendered on ``vision``.
+  (``oracle``, ``nothing`` and ``vision``, the learned-vision baseline of
+  ``examples/track1_vision``, which plays only this split; the other baselines name ids),
+  and print its Table IV rows beside the structured planner's on ``standard`` (the same
+  houses and tasks with a detector handed over) with the median decision time and the
+  peak memory of the playing process above do-nothing's, and the checks: oracle >= 95,
+  do-nothing 0, the learned-vision baseline above the sanity agent's Final by two standard
+  errors. Frames are always rendered on ``vision``.
 - ``--unstratified``: each seed draws its exception, as a one-off episode does. By default
   the ``k``-th seed of a split's range is episode index ``k``, as in a campaign, and the
   index decides the exception type (``plugins/track1/_scenario.py``); the report says how
@@ -62,6 +66,7 @@ import importlib
 import json
 import math
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -75,14 +80,15 @@ from _uncertainty import paired_spread, uncertainty_lines  # noqa: E402  (siblin
 
 ROOT = Path(__file__).resolve().parents[2]
 HERE = Path(__file__).resolve().parent
-SYSTEMS = ("sanity", "heuristic", "memoryfree", "lookahead", "structured", "oracle", "nothing")
+SYSTEMS = ("sanity", "heuristic", "memoryfree", "lookahead", "structured", "oracle", "nothing",
+           "vision")
 #: Table IV's order of finals, lowest first, and eq. 2's split weights.
 ORDER = ("sanity", "heuristic", "memoryfree", "lookahead", "structured")
 WEIGHTS = {"standard": 0.6, "challenge": 0.4}
 NAMES = {"sanity": "Random sanity", "heuristic": "Heuristic planner",
          "memoryfree": "Memory-free policy", "lookahead": "PathDreamer-style",
          "structured": "Structured WM+replan", "oracle": "Oracle (privileged)",
-         "nothing": "Do-nothing"}
+         "nothing": "Do-nothing", "vision": "Learned vision"}
 PAPER = {  # Table IV: Std., Ch., Final, Task Succ. %, Model Verif. %, Recovery %, Invalid/Ep
     "sanity": (10.6, 6.8, 9.1, 2.5, 10.0, 0.0, 27.4),
     "heuristic": (32.8, 23.9, 29.2, 27.8, 44.0, 13.5, 13.6),
@@ -115,6 +121,7 @@ def child(system: str, split: str, seeds: list[tuple[int, int | None]], cap: int
         t0 = time.perf_counter()
         p = run_agent(make, split, seed, max_steps_per_stage=cap, render=render, index=index)
         card = p.card
+        peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         print(json.dumps({
             "system": system, "split": split, "seed": seed, "total": card.total,
             "success": card.metrics.get("task_success", 0.0),
@@ -122,7 +129,7 @@ def child(system: str, split: str, seeds: list[tuple[int, int | None]], cap: int
             "recovery": card.metrics.get("recovery"), "invalid": p.invalid_actions,
             "latency_ms": median(p.latencies_ms), "steps": p.steps, "status": p.status.value,
             "exception": p.exception, "planned": p.planned, "index": index,
-            "error": p.error, "wall_s": time.perf_counter() - t0,
+            "error": p.error, "wall_s": time.perf_counter() - t0, "peak_mb": peak_mb,
             "components": card.components, "metrics": card.metrics}), flush=True)
 
 
@@ -191,29 +198,57 @@ def table(rows: dict[str, dict[str, float]]) -> list[str]:
     return lines
 
 
-VISION_SYSTEMS = ("oracle", "nothing")
-"""The systems that act by pixel (the baselines name things by id)."""
+VISION_SYSTEMS = ("oracle", "nothing", "vision")
+"""The systems that act by pixel: the oracle, do-nothing and the learned-vision baseline
+(``examples/track1_vision``; the other baselines name things by id and play only the
+official splits)."""
 
 
-def vision_lines(results: list[dict[str, Any]]) -> tuple[list[str], list[tuple[str, bool]]]:
-    """The ``vision`` split's row per system, and its checks (oracle >= 95, do-nothing 0)."""
-    lines = [f"{'vision split':<22} {'Score':>6} {'Succ.%':>7} {'Model%':>7} {'Inv.':>5} "
-             f"{'episodes':>8}"]
-    means: dict[str, float] = {}
+def vision_lines(results: list[dict[str, Any]], rows: dict[str, dict[str, float]]
+                 ) -> tuple[list[str], list[tuple[str, bool]]]:
+    """The ``vision`` split's Table IV row per system (its one split is the Final), beside
+    the structured planner's on ``standard`` (the same houses and tasks with a detector
+    handed over) when it played; the peak memory of the playing process above
+    do-nothing's (the simulator's share), and the checks: oracle >= 95, do-nothing 0, the
+    learned-vision baseline clearly above the sanity agent (by two standard errors)."""
+    head = (f"{'system':21s}{'split':9s}{'Final':>6s}{'Succ%':>6s}{'Model%':>7s}{'Rec%':>6s}"
+            f"{'Inv/Ep':>7s}{'ms':>6s}{'+MB':>6s}{'n':>4s}")
+    lines = [head, "-" * len(head)]
+    floor = max((r["peak_mb"] for r in results if r["system"] == "nothing"), default=None)
+    means: dict[str, tuple[float, float]] = {}
     for system in VISION_SYSTEMS:
-        mine = [r for r in results if r["system"] == system and r["split"] == "vision"]
+        mine = [r for r in results if r["system"] == system]
         if not mine:
             continue
-        means[system] = 100 * _mean([r["total"] for r in mine])
-        lines.append(f"{NAMES[system]:<22} {means[system]:>6.1f} "
-                     f"{100 * _mean([r['success'] for r in mine]):>7.1f} "
-                     f"{100 * _mean([r['model'] for r in mine]):>7.1f} "
-                     f"{_mean([r['invalid'] for r in mine]):>5.2f} {len(mine):>8}")
+        totals = [100 * r["total"] for r in mine]
+        se = statistics.stdev(totals) / math.sqrt(len(totals)) if len(totals) > 1 else math.nan
+        means[system] = (_mean(totals), se)
+        recovery = [r["recovery"] for r in mine if r["recovery"] is not None]
+        extra = (max(r["peak_mb"] for r in mine) - floor) if floor is not None else math.nan
+        lines.append(f"{NAMES[system][:20]:21s}{'vision':9s}{means[system][0]:6.1f}"
+                     f"{100 * _mean([r['success'] for r in mine]):6.1f}"
+                     f"{100 * _mean([r['model'] for r in mine]):7.1f}"
+                     f"{100 * _mean(recovery):6.1f}{_mean([r['invalid'] for r in mine]):7.1f}"
+                     f"{statistics.median([r['latency_ms'] for r in mine]):6.0f}"
+                     f"{extra:6.0f}{len(mine):4d}")
+    if "structured" in rows:
+        r = rows["structured"]
+        lines.append(f"{NAMES['structured'][:20]:21s}{'standard':9s}{r['std']:6.1f}"
+                     f"{r['success']:6.1f}{r['model']:7.1f}{r['recovery']:6.1f}"
+                     f"{r['invalid']:7.1f}{r['latency']:6.0f}")
     out = []
     if "oracle" in means:
-        out.append((f"oracle >= 95 on vision ({means['oracle']:.1f})", means["oracle"] >= 95))
+        out.append((f"oracle >= 95 on vision ({means['oracle'][0]:.1f})",
+                    means["oracle"][0] >= 95))
     if "nothing" in means:
-        out.append((f"do-nothing 0 on vision ({means['nothing']:.1f})", means["nothing"] == 0))
+        out.append((f"do-nothing 0 on vision ({means['nothing'][0]:.1f})",
+                    means["nothing"][0] == 0))
+    if "vision" in means:  # our sanity agent's Final when it played, else the paper's
+        sanity, whose = ((rows["sanity"]["final"], "ours") if "sanity" in rows
+                         else (PAPER["sanity"][2], "the paper's"))
+        got, se = means["vision"]
+        out.append((f"learned vision {got:.1f} above sanity's final ({whose}, {sanity:.1f}) "
+                    f"by 2 s.e. ({se:.1f})", got - 2 * se > sanity))
     return lines, out
 
 
@@ -336,6 +371,8 @@ def main() -> None:
     jobs = []
     for system in systems:
         for split, seeds in (("standard", args.standard), ("challenge", args.challenge)):
+            if system == "vision":  # plays the vision split only
+                break
             indexed = [(s, None if args.unstratified else k) for k, s in enumerate(seeds)]
             jobs += [(system, split, indexed[k:k + CHUNK]) for k in range(0, len(seeds), CHUNK)]
         if args.vision and system in VISION_SYSTEMS:
@@ -343,9 +380,10 @@ def main() -> None:
             jobs += [(system, "vision", indexed[k:k + CHUNK])
                      for k in range(0, len(indexed), CHUNK)]
     first = next((s for s in ("structured", "heuristic") if s in systems),
-                 next(s for s in systems if s != "nothing"))
-    jobs.append((f"repeat:{first}", "standard",
-                 [(args.standard[0], None if args.unstratified else 0)]))
+                 next((s for s in systems if s not in ("nothing", "vision")), None))
+    if first is not None:
+        jobs.append((f"repeat:{first}", "standard",
+                     [(args.standard[0], None if args.unstratified else 0)]))
     t0 = time.perf_counter()
     done = 0
 
@@ -364,25 +402,29 @@ def main() -> None:
         results = [r for rows in pool.map(run, jobs) for r in rows]
     vision_rows = [r for r in results if r["split"] == "vision"]
     main_rows = [r for r in results if not r["repeat"] and r["split"] != "vision"]
-    rows = {s: row([r for r in main_rows if r["system"] == s]) for s in systems}
-    again = next(r for r in results if r["repeat"])
-    once = next(r for r in main_rows if r["system"] == again["system"]
-                and r["split"] == "standard" and r["seed"] == again["seed"])
-    repeat = (f"{again['system']} standard seed {again['seed']}", once["total"], again["total"])
+    rows = {s: row([r for r in main_rows if r["system"] == s]) for s in systems
+            if s != "vision"}
+    again = next((r for r in results if r["repeat"]), None)
+    repeat = None
+    if again is not None:
+        once = next(r for r in main_rows if r["system"] == again["system"]
+                    and r["split"] == "standard" and r["seed"] == again["seed"])
+        repeat = (f"{again['system']} standard seed {again['seed']}", once["total"],
+                  again["total"])
     errors = [r for r in main_rows if r["error"]]
     print()
     print(f"Track 1, Table IV (ours above the paper's), {time.perf_counter() - t0:.0f} s")
     print("\n".join(table(rows)))
     print("\nCalibration checks:")
-    vlines, vchecks = vision_lines(vision_rows) if args.vision else ([], [])
+    vlines, vchecks = vision_lines(vision_rows, rows) if args.vision else ([], [])
     for text, ok in checks(rows, repeat) + vchecks:
         print(f"  {'ok  ' if ok else 'FAIL'} {text}")
     if vlines:
-        print(f"\nThe vision split, seeds {args.vision[0]}-{args.vision[-1]} "
-              "(outside the final):")
+        print(f"\nThe vision split, seeds {args.vision[0]}-{args.vision[-1]} (outside the "
+              "final; +MB: peak memory above do-nothing's process):")
         print("\n".join(vlines))
     episodes = {s: {(r["split"], r["seed"]): ("", 100 * r["total"]) for r in main_rows
-                    if r["system"] == s} for s in systems}
+                    if r["system"] == s} for s in systems if s != "vision"}
     print("\n".join(uncertainty_lines(episodes, ORDER, WEIGHTS, NAMES)))
     spread = paired_spread(episodes, ORDER)
     if spread:

@@ -422,19 +422,32 @@ class Oracle:
                 **({"tool": fields["tool"]} if "tool" in fields else {})}
 
     def go(self, goal: tuple[float, float], yaw: float) -> dict[str, Any] | None:
-        """The next move toward a pose (opening closed doors on the way), or None there."""
+        """The next move toward a pose (opening closed doors on the way), or None there.
+
+        By pixel, within 0.6 m of the pose (the search's step back or aside) it drives
+        straight there, forward or backward (``_escape``): a pose of the search may lie in
+        an obstacle's margin, where the grid has no route. Not where the grid has a route
+        from here and the straight line leaves free space: that line may graze an obstacle
+        (an open door's edge), and a robot wedged there drives into it for ever."""
         x, y, th = self.ep.house.robot_pose
         if math.dist((x, y), goal) > 0.06:
             found = self._closed_door_on_path(goal)
             if found is not None:
                 return self._open_door(*found)
-            if self.by_pixel and math.dist((x, y), goal) < 0.6:  # the search's step back
+            if self.by_pixel and math.dist((x, y), goal) < 0.6 and self._straight(goal):
                 return self._escape(goal)
             return self._drive(goal, frozenset())
         err = math.remainder(yaw - th, math.tau)
         if abs(err) > 0.05:
             return {"primitive": "move", "move": [0.0, max(-1.0, min(1.0, err / TURN))]}
         return None
+
+    def _straight(self, goal: tuple[float, float]) -> bool:
+        """Whether the grid has no route from the robot to ``goal``, or the straight line
+        there stays in free space."""
+        grid, dist = self.grid(), self._field(goal, frozenset())
+        x, y, _ = self.ep.house.robot_pose
+        return bool(dist[grid.cell(x, y)] < 0) or grid.line_free((x, y), goal, dist)
 
     def _field(self, goal: tuple[float, float], through: frozenset[int]) -> np.ndarray:
         grid = self.grid()

@@ -295,3 +295,34 @@ def test_the_oracle_steps_aside_when_its_pixel_is_refused_as_out_of_view() -> No
     assert played.error == "" and played.card.metrics["task_success"] == 1.0, played.card
     assert ("open", "not_visible") in refused, refused
     assert len(refused) <= 6 and played.card.total >= 0.95, (refused, played.card)
+
+
+@pytest.mark.slow
+def test_the_oracle_goes_round_an_open_door_to_a_pose_near_it() -> None:
+    """Seed 43016: holding the towel, the oracle comes down past an open door's panel to a
+    drawer's access pose. Within 0.6 m of a pose it drives straight (the search's poses may
+    lie in an obstacle's margin), but here the grid has a route and the straight line grazes
+    the panel's free edge: it follows the grid instead of wedging against the door, puts the
+    towel away and completes the task without a collision."""
+    collided: list[int] = []
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from _track1_harness import run_agent
+    from _track1_oracle import Oracle
+
+    class Watched(Oracle):
+        def run(self, env: Any) -> None:
+            step = env.step
+
+            def watched(action: dict[str, Any]) -> Any:
+                ts = step(action)
+                if ts.action is not None and ts.action.reason == "collided":
+                    collided.append(self.step)
+                return ts
+
+            env.step = watched
+            super().run(env)
+
+    played = run_agent(Watched, "vision", 43016, index=16)
+    assert played.error == "" and played.card.metrics["task_success"] == 1.0, played.card
+    assert collided == [] and played.card.total >= 0.95, (collided, played.card)

@@ -1,6 +1,6 @@
 """The learned detector of the vision baseline: one RGB-D frame in, detections out.
 
-Three small multilayer perceptrons, trained offline (``train_detector.py``) on frames and
+Six small multilayer perceptrons, trained offline (``train_detector.py``) on frames and
 instance segmentation rendered through the public gymnasium envs, and run here on numpy:
 
 1. ``pixels``: per pixel, what it shows (``PIXEL_CLASSES``: floor and walls, a door, each
@@ -15,16 +15,15 @@ instance segmentation rendered through the public gymnasium envs, and run here o
    pixels had;
 3. ``items``: a small item segment's category (``ITEMS``, or none: not an item after all)
    and ``colours`` its colour, from the segment's physical size, shape, resting height and
-   colour statistics; ``states``: whether a
-   door or container segment is open, from its depth profile (a doorway or an open
-   cabinet shows depth behind it); ``doorways``: where a door's doorway centre lies from
-   its panel's (a door swung open stands beside its doorway), from the panel's ends and
-   the depth beside them.
+   colour statistics; ``states``: whether a door or container segment is open, from its
+   depth profile (a doorway or an open cabinet shows depth behind it); ``doorways``: where
+   a door's doorway centre lies from its panel's (a door swung open stands beside its
+   doorway), from the panel's ends and the depth beside them.
 
 A detection is a dict shaped like the host's own detector's (``kind``, ``category``,
 ``colour``, ``state``, ``rel_pos`` in the robot's frame: x ahead, y left) plus the segment
-itself (``mask``, ``pixel``: the mask's pixel nearest its centre, which an action by pixel
-names). Ids are not the detector's business (``tracker.Tracker`` gives them).
+itself (``mask``, ``pixel``: the pixel an action by pixel names, ``nearest_pixel``). Ids
+are not the detector's business (``seeing.Tracker`` gives them).
 """
 
 from __future__ import annotations

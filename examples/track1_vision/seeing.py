@@ -4,7 +4,7 @@
 observation it returns gains ``detections`` (the learned detector's, ``detector.Detector``,
 under ids of the agent's own, ``Tracker``) and ``held`` as an id (the host says only whether
 the hand holds something), and each action that names a thing by id leaves as an action by
-pixel: the pixel of that thing's segment in the last frame (nearest the segment's centre),
+pixel: the pixel of that thing's segment in the last frame (``detector.nearest_pixel``),
 else the pixel its remembered position projects to. So the structured planner
 (``examples/track1_structured``) plays the ``vision`` split unchanged, on what the camera
 shows.
@@ -17,7 +17,7 @@ import time
 from typing import Any
 
 import numpy as np
-from detector import FOVY, TILT, Detector
+from detector import EYE, FOVY, TILT, Detector
 
 from simhost.agent import RemoteEnv, TimeStep
 
@@ -25,7 +25,6 @@ MATCH = {"item": 0.45, "door": 1.0, "big": 0.9}
 """How far (metres) a sighting may lie from a remembered thing of its group to be it."""
 HEIGHT = {"item": 0.8, "door": 1.0, "big": 0.5}
 """The height (metres) aimed at when a thing is not in the last frame."""
-EYE = (0.14, 1.2)
 STUCK = 3
 """Moves in a row that collided before the robot backs off whatever the planner asked: a
 robot wedged against something its camera misread (a table edge, a door swung open)."""
@@ -222,7 +221,7 @@ class SeeingEnv:
         c, s = math.cos(yaw), math.sin(yaw)
         dx, dy = wx - x, wy - y
         rx, ry = c * dx + s * dy - EYE[0], -s * dx + c * dy
-        rz = wz - EYE[1]
+        rz = wz - EYE[2]
         ct, st = math.cos(TILT), math.sin(TILT)
         ahead = rx * ct - rz * st
         up = rx * st + rz * ct

@@ -36,6 +36,7 @@ from schemas import (
     ScoreCard,
 )
 
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 TEAMS = ("track2_demoparser", "track2_waypoint", "a_team_with_a_rather_long_name_2026")
 
 
@@ -224,9 +225,19 @@ def test_quarantine_lines_agree_with_the_campaigns_retries(board: Path) -> None:
     assert "quarantined" in team and "not retried" in team
 
 
+def _splits_played(folder: Path) -> set[str] | None:
+    """The splits an example image says it plays (``LABEL eagc.splits="a,b"`` in its
+    Dockerfile); None: every split."""
+    for line in (folder / "Dockerfile").read_text().splitlines():
+        if line.startswith("LABEL eagc.splits="):
+            return set(line.split("=", 1)[1].strip('"').split(","))
+    return None
+
+
 def test_every_example_agent_is_in_its_tracks_demo() -> None:
     """Adding a baseline to the demo is adding its image to the demo file: this keeps
-    the files in step with examples/ (every example agent of a track is in its demo)."""
+    the files in step with examples/ (every example agent of a track is in its demo, but
+    one that plays only splits the demo does not: the vision baseline)."""
     from orchestrator._images.build import example_agents
     from orchestrator.cli.demo import demo_files
 
@@ -236,10 +247,14 @@ def test_every_example_agent_is_in_its_tracks_demo() -> None:
         spec = load_campaign(path)
         assert spec.track == track and spec.secret is None and spec.phase == "local"
         images = {s.image for s in spec.submissions}
-        mine = {tag for tag, folder in example_agents().items()
-                if folder.name.startswith(f"{track}_")}
+        demo_splits = {s.name for s in spec.splits}
+        plays = {tag: _splits_played(folder) for tag, folder in example_agents().items()
+                 if folder.name.startswith(f"{track}_")}
+        mine = {tag for tag, splits in plays.items() if splits is None or splits & demo_splits}
         assert mine <= images, f"{path.name} lacks {sorted(mine - images)}"
+        assert not (set(plays) - mine) & images, "an image in a demo that plays none of it"
         assert spec.limits.max_steps_per_stage is not None  # outcomes independent of speed
+    assert _splits_played(EXAMPLES / "track1_vision") == {"vision"}
 
 
 def test_the_contract_check_names_the_files_problem_once() -> None:

@@ -203,6 +203,7 @@ class Driver:
                     progress.update(bar, completed=self.report.committed + self.report.quarantined,
                                     running=len(self.running), failed=self.failed,
                                     retries=self.report.retries)
+                self._drain()  # "started" reports the board got after the last result
         except KeyboardInterrupt:
             self._cancel()
         except (StoreError, ClusterLost) as e:
@@ -337,9 +338,8 @@ class Driver:
             self.board = ProgressBoard.remote()
             return
         for ev in events:
-            if ev.episode in self.finished:
-                continue
-            self.running[ev.episode] = ev
+            if ev.episode not in self.finished:  # one that already finished is not running,
+                self.running[ev.episode] = ev  # but the log keeps where it started
             self.events.write(ev.model_copy(update={"at": time.time()}))
         self.metrics.set_running(len(self.running))
 

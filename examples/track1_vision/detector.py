@@ -322,8 +322,10 @@ class Detector:
         found: list[dict[str, Any]] = []
         rows: list[np.ndarray] = []
         shares: list[np.ndarray] = []
+        first = np.zeros(n + 1, np.int64)  # a pixel of each segment: its class is the class
+        first[seg.ravel()[::-1]] = np.arange(seg.size)[::-1]
         for k in range(1, n + 1):
-            cls = int(labels[seg == k][0]) if counts[k] else 0
+            cls = int(labels.ravel()[first[k]])
             group = "item" if cls == ITEM_CLASS else ("door" if cls == 1 else "big")
             if counts[k] < MIN_PIXELS[group]:
                 continue

@@ -13,7 +13,6 @@ shows.
 from __future__ import annotations
 
 import math
-import time
 from typing import Any
 
 import numpy as np
@@ -92,11 +91,7 @@ class Tracker:
 
 
 class SeeingEnv:
-    """A ``RemoteEnv`` seen through the detector (see the module).
-
-    Attributes:
-        decide_ms: Milliseconds the detector took per frame, in order.
-    """
+    """A ``RemoteEnv`` seen through the detector (see the module)."""
 
     def __init__(self, env: RemoteEnv, detector: Detector | None = None) -> None:
         self.env = env
@@ -109,7 +104,6 @@ class SeeingEnv:
         self.told: dict[int, str] = {}
         """Door states the host's answers taught (``already_open``, a door that bumped the
         robot): they outweigh the camera's reading."""
-        self.decide_ms: list[float] = []
         self.stuck = 0
         """Moves in a row that collided."""
 
@@ -140,7 +134,6 @@ class SeeingEnv:
         obs = dict(ts.observation)
         if "rgb" not in obs:
             return ts
-        t0 = time.perf_counter()
         rgb, depth = np.asarray(obs["rgb"]), np.asarray(obs["depth"])
         self.shape = depth.shape
         self.pose = tuple(float(v) for v in obs["odometry"])  # type: ignore[assignment]
@@ -159,7 +152,6 @@ class SeeingEnv:
         for d in self.frame:
             if d["id"] in self.told:
                 d["state"] = self.told[d["id"]]
-        self.decide_ms.append((time.perf_counter() - t0) * 1000)
         ok = ts.action is not None and ts.action.ok
         if action is not None and ok and action.get("primitive") == "pick":
             self.held = int(action.get("target", -1))

@@ -169,6 +169,7 @@ def test_the_tracker_keeps_an_id_per_thing_and_actions_leave_by_pixel() -> None:
     seeing.frame = [dict(mug, id=first, pixel=(120, 150))]
     sent = seeing._by_pixel({"primitive": "use", "target": first, "tool": first})
     assert sent == {"primitive": "use", "target_px": [120, 150]}, "the held tool needs no pixel"
-    seeing.frame = []  # not in the frame: where its place projects, inside the frame
+    seeing.frame = []  # not in the frame: where its place projects (2 m ahead, 1 m left,
     u, v = seeing._by_pixel({"primitive": "pick", "target": other[0]["id"]})["target_px"]
-    assert 0 <= u < 256 and 0 <= v < 192
+    assert 0 < u < 128 and 40 < v < 96, (u, v)  # 0.8 m high: left of centre, 15 degrees
+    # above the optical axis (tilted 25 degrees down): above the centre row, not clamped)

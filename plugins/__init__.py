@@ -19,7 +19,7 @@ from plugins._base import (
 )
 from plugins._errors import PluginError
 from plugins._registry import GROUP, available_tracks, load_track, validate_plugin
-from simhost._episode import EpisodeOutcome, Observation, StageSpec, StepOutcome, TrackEpisode
+from simhost.host._episode import EpisodeOutcome, Observation, StageSpec, StepOutcome, TrackEpisode
 
 __all__ = [
     "EPISODE_LOG",

@@ -40,8 +40,8 @@ from schemas import (
 )
 from schemas._io import ignored_note
 from schemas._result import EpisodeStatus
-from simhost._episode import EpisodeOutcome, StageSpec, TrackEpisode
-from simhost._records import ScenarioRecord
+from simhost.host._episode import EpisodeOutcome, StageSpec, TrackEpisode
+from simhost.host._records import ScenarioRecord
 
 #: A track's hidden-scenario model.
 ScenarioT = TypeVar("ScenarioT", bound=BaseModel)

@@ -11,7 +11,7 @@ from pydantic import BaseModel
 
 from plugins._base import TrackPlugin
 from plugins._errors import PluginError
-from simhost._episode import EpisodeOutcome
+from simhost.host._episode import EpisodeOutcome
 
 GROUP = "eagc.tracks"
 

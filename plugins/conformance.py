@@ -34,8 +34,8 @@ from plugins._base import ParsedFile, Scenario, ScoringInput, TrackPlugin, grant
 from plugins._registry import available_tracks, load_track, validate_plugin
 from schemas import EndReason, FieldSpec, FileCheck, HostMessage, ScoreCard
 from schemas._result import EpisodeStatus
-from simhost._actions import check_action
-from simhost._episode import EpisodeOutcome, Observation, StageSpec, StepOutcome, TrackEpisode
+from simhost.host._actions import check_action
+from simhost.host._episode import EpisodeOutcome, Observation, StageSpec, StepOutcome, TrackEpisode
 
 __all__ = ["TrackConformance", "check_observation", "check_outcome", "sample_action"]
 

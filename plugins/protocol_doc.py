@@ -38,7 +38,7 @@ import schemas
 from plugins._base import TrackPlugin
 from plugins._registry import available_tracks, load_track
 from schemas import _protocol as proto
-from simhost._episode import StageSpec
+from simhost.host._episode import StageSpec
 
 DOC = Path(schemas.__file__).with_name("PROTOCOL.md")
 _ROOT = DOC.parent.parent
@@ -258,12 +258,12 @@ def _signature(fn: Callable[..., Any]) -> str:
 
 
 def client_section() -> str:
-    """What the Python client (``simhost.agent``) returns: ``RemoteEnv``'s calls, the
+    """What the Python client (``simhost.client``) returns: ``RemoteEnv``'s calls, the
     fields of its ``TimeStep`` (their meaning from the reply they come from), and
     ``OutputFiles``' calls."""
     from typing import get_type_hints
 
-    from simhost import agent
+    from simhost import client as agent
 
     remote = ["| call | what it does |", "|---|---|"]
     for name in ("hello", "reset", "step", "answer", "end_stage", "close"):
@@ -440,7 +440,7 @@ def fields_table(models: Iterable[type[BaseModel]]) -> str:
 def track1_vocabulary(plugin: TrackPlugin) -> str:
     """Track 1's words and limits, from where they live: the failure reasons an action
     result carries, and the reach and motion limits of every split."""
-    from simhost.track1._actions import REASONS
+    from simhost.worlds.track1._actions import REASONS
 
     rows = ["| split | pick, use on an item (to its centre) | open, close, place, use "
             "(to a footprint) | a door (to its centre) | `move` forward = 1 | "
@@ -452,11 +452,11 @@ def track1_vocabulary(plugin: TrackPlugin) -> str:
                     f"{c.door_reach:g} m | {c.max_forward:g} m | "
                     f"{math.degrees(c.max_turn):g}° |")
     instruction = instruction_lines(plugin)
-    from simhost.track1 import _catalogue as cat
+    from simhost.worlds.track1 import _catalogue as cat
 
     effects = ", ".join(f"`{a}` ({b} → {c})" for a, (b, c) in cat.AFFORDANCE_EFFECTS.items())
     return "\n".join([
-        "Categories (`simhost.track1._catalogue`): rooms "
+        "Categories (`simhost.worlds.track1._catalogue`): rooms "
         + ", ".join(f"`{x}`" for x in dict.fromkeys(cat.ROOM_TYPES)) + "; objects "
         + ", ".join(f"`{x}`" for x in cat.OBJECT_CATEGORIES) + "; tools "
         + ", ".join(f"`{x}`" for x in cat.TOOL_CATEGORIES) + "; containers "
@@ -467,7 +467,7 @@ def track1_vocabulary(plugin: TrackPlugin) -> str:
         f"`tools_for`), with the state each takes a target from and to: {effects}.",
         "",
         "Failure reasons an action result may carry (`ok` false; "
-        "`simhost.track1.REASONS`): " + ", ".join(f"`{r}`" for r in REASONS) + ".",
+        "`simhost.worlds.track1.REASONS`): " + ", ".join(f"`{r}`" for r in REASONS) + ".",
         "",
         "Reach (the robot's centre to the target) and motion per `move` step, by split:",
         "",
@@ -525,7 +525,7 @@ def track2_vocabulary(plugin: TrackPlugin) -> str:
     """Track 2's task-model names, per family, from the truths of sampled instances (what
     ``task_model.json`` is compared with), and how values are compared."""
     from plugins.track2._scoring import close
-    from simhost.track2 import task_truth
+    from simhost.worlds.track2 import task_truth
 
     split = next(iter(plugin.splits))
     truths: dict[str, Any] = {}
@@ -555,7 +555,7 @@ def track2_vocabulary(plugin: TrackPlugin) -> str:
     return "\n".join([
         *packet_keys(plugin, split),
         f"Task-model names per family (the truths of sampled `{split}` instances; "
-        "`simhost.track2.task_truth`): a model of another family scores 0.",
+        "`simhost.worlds.track2.task_truth`): a model of another family scores 0.",
         "",
         *rows,
         "",

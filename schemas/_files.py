@@ -181,7 +181,7 @@ class SuccessCriterion(_File):
 class TaskModel(_File):
     """``task_model.json`` (Track 2): the task inferred from the demonstration.
 
-    Names follow the bench's public vocabulary (``simhost.track2.task_truth``,
+    Names follow the bench's public vocabulary (``simhost.worlds.track2.task_truth``,
     ``plugins/track2/README.md``): e.g. insertion has stages ``reach grasp transport align
     insert release``, variables ``peg_pose``, constraints ``clearance``, preconditions
     ``{"stage": "insert", "requires": ["peg_grasped", "peg_aligned"]}`` and success

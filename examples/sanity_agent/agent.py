@@ -1,4 +1,4 @@
-"""Sanity baseline agent: what a team copies to start. Uses only simhost.agent (light).
+"""Sanity baseline agent: what a team copies to start. Uses only simhost.client (light).
 
 Explores the arena along a lawn-mower path until the target is in sensing range, writes its
 position to /output/world_model.json and ends the stage; then drives to it. If the target
@@ -14,7 +14,7 @@ import sys
 import numpy as np
 
 from schemas import WORLD_MODEL_VERSION, WorldModel
-from simhost.agent import OutputFiles, RemoteEnv
+from simhost.client import OutputFiles, RemoteEnv
 
 WAYPOINTS = [(-1.5, -1.5), (1.5, -1.5), (1.5, -0.5), (-1.5, -0.5), (-1.5, 0.5), (1.5, 0.5),
              (1.5, 1.5), (-1.5, 1.5)]

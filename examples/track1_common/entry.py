@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Protocol
 
-from simhost.agent import RemoteEnv
+from simhost.client import RemoteEnv
 
 
 class Player(Protocol):

@@ -27,8 +27,8 @@ import numpy as np
 from planner import MapPlanner
 from priors import Priors
 
-from simhost.agent import TimeStep
-from simhost.skills import DoorOpener, Thing, door_normal, face, near
+from simhost.client import TimeStep
+from simhost.client.skills import DoorOpener, Thing, door_normal, face, near
 
 CLOSE = 2.3
 """Within this distance, facing it, a piece of furniture has been looked at closely."""

@@ -4,10 +4,10 @@
   nearest frontier, opens closed doors with unexplored space behind them and closed
   containers (to see inside); keeps rooms (read from the sign at each doorway), door
   connectivity, door/container states and objects in a world model (the map, the model,
-  navigation and exploration are ``simhost.skills.Explorer``, which this planner extends),
+  navigation and exploration are ``simhost.client.skills.Explorer``, which this planner extends),
   written
   to ``/output/world_model.json`` before the stage ends (or its step budget runs out).
-- Planning: reads the instruction into goals (``simhost.skills.parse``: rule-based
+- Planning: reads the instruction into goals (``simhost.client.skills.parse``: rule-based
   decomposition of the track's grammar), answers the queries it can from the model, and
   submits a plan: the instruction's steps, the room route and the doors its breadth-first
   grid paths cross.
@@ -19,7 +19,7 @@
   adapts: a detour, a search (the storage room first), another container in the same room,
   another tool with the same use.
 
-Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), ``simhost.skills``, numpy
+Uses only ``simhost.client`` (``RemoteEnv``, ``OutputFiles``), ``simhost.client.skills``, numpy
 and the standard library.
 """
 
@@ -28,8 +28,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from simhost.agent import OutputFiles, RemoteEnv, TimeStep
-from simhost.skills import AFFORDANCES, Explorer, Thing, face, near, parse, reach_radius
+from simhost.client import OutputFiles, RemoteEnv, TimeStep
+from simhost.client.skills import AFFORDANCES, Explorer, Thing, face, near, parse, reach_radius
 
 
 class MapPlanner(Explorer):
@@ -72,7 +72,7 @@ class MapPlanner(Explorer):
 
     # ------------------------------------------------------------------ perception
     def perceive(self, ts: TimeStep) -> None:
-        for t in self.sense(ts.observation):  # the map and the model (simhost.skills)
+        for t in self.sense(ts.observation):  # the map and the model (simhost.client.skills)
             if t.kind == "door":
                 if t.state == "locked":  # where exceptions show themselves (dev split)
                     self.report("door_lock", ts.stage, door=t.id)

@@ -41,7 +41,7 @@ FIRST_SEED = 10**7
 def learn(houses: int) -> dict[str, np.ndarray]:
     import gymnasium as gym
 
-    import simhost.track1  # noqa: F401 - registers the Track 1 envs
+    import simhost.worlds.track1  # noqa: F401 - registers the Track 1 envs
 
     r, f, i = len(ROOM_TYPES), len(FURNITURE), len(ITEMS)
     room_type = np.ones(r)

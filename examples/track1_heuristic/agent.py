@@ -1,5 +1,5 @@
 """Track 1 heuristic map planner baseline (paper Table IV): ``planner.MapPlanner`` in its
-container. Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), numpy and the
+container. Uses only ``simhost.client`` (``RemoteEnv``, ``OutputFiles``), numpy and the
 standard library. The planner and its modules are the Track 1 baselines' library,
 ``examples/track1_common`` (this image is built ``FROM`` its image).
 """

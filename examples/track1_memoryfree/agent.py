@@ -8,21 +8,20 @@ the piece of furniture in view that most likely holds it (priors learned offline
 generated houses, ``priors.npz``, the look-ahead planner's: the policy's weights, not a
 memory), opening closed containers; with none in view it searches by following the walls on
 its right hand (furniture stands against walls, so this passes close to every surface and
-through every open doorway), opening closed doors ahead. A failed ``open`` or
-``place`` that says ``locked`` or ``unavailable`` is logged as an exception. During
-exploration it follows the walls and reports every sighting, and every doorway it passes
-from one signed room into the next, to ``world_model.json`` (a write-only report: it never
-reads it back). Between steps it keeps only what a reactive policy
-needs to act at all: which goal of the instruction it is on (``simhost.skills.parse``), the room
-whose sign it read last, how long ago (after a while, or when the goal names another room,
-it leaves through a doorway in sight), the id of what it is approaching while that stays
-in view, and a step counter (after a while it accepts another tool with the same use). The
-last action's result is part of what it sees: it steps back when it stands in a door's way
-or a turn hits something. Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), the
-instruction reader of ``simhost.skills``, numpy and the standard library. ``priors.py``,
-``priors.npz`` and the
-entry point (``entry.py``) are the Track 1 baselines' library, ``examples/track1_common``
-(this image is built ``FROM`` its image).
+through every open doorway), opening closed doors ahead. A failed ``open`` or ``place`` that
+says ``locked`` or ``unavailable`` is logged as an exception. During exploration it follows
+the walls and reports every sighting, and every doorway it passes from one signed room into
+the next, to ``world_model.json`` (a write-only report: it never reads it back). Between
+steps it keeps only what a reactive policy needs to act at all: which goal of the
+instruction it is on (``simhost.client.skills.parse``), the room whose sign it read last,
+how long ago (after a while, or when the goal names another room, it leaves through a
+doorway in sight), the id of what it is approaching while that stays in view, and a step
+counter (after a while it accepts another tool with the same use). The last action's result
+is part of what it sees: it steps back when it stands in a door's way or a turn hits
+something. Uses only ``simhost.client`` (``RemoteEnv``, ``OutputFiles``), the instruction
+reader of ``simhost.client.skills``, numpy and the standard library. ``priors.py``,
+``priors.npz`` and the entry point (``entry.py``) are the Track 1 baselines' library,
+``examples/track1_common`` (this image is built ``FROM`` its image).
 """
 
 from __future__ import annotations
@@ -43,8 +42,8 @@ from doorways import Doorways  # noqa: E402
 from entry import main  # noqa: E402
 from priors import Priors  # noqa: E402
 
-from simhost.agent import OutputFiles, RemoteEnv, TimeStep  # noqa: E402
-from simhost.skills import AFFORDANCES, parse  # noqa: E402
+from simhost.client import OutputFiles, RemoteEnv, TimeStep  # noqa: E402
+from simhost.client.skills import AFFORDANCES, parse  # noqa: E402
 
 REACH = {"object": 1.0, "tool": 1.0, "door": 1.3}
 SIZES = {"table": 0.5, "counter": 0.55, "shelf": 0.4, "bed": 0.9, "desk": 0.45, "sofa": 0.6,
@@ -58,7 +57,7 @@ LOOKALIKE_COLOURS = {"red": ("orange",), "orange": ("red", "yellow"),
                      "yellow": ("orange", "white"), "white": ("yellow",), "blue": ("purple",),
                      "purple": ("blue",), "green": ("yellow",), "black": ("blue",)}
 """What a detector may read a thing as from afar: copies of the track's public tables for
-objects and tools (``simhost.track1.CONFUSABLE``, ``CONFUSABLE_COLOURS``; the image cannot
+objects and tools (``simhost.worlds.track1.CONFUSABLE``, ``CONFUSABLE_COLOURS``; the image cannot
 import the simulator), kept equal by a test."""
 CLOSE_LOOK = 1.0
 """Within this distance (m) a reading is trusted: a look-alike from afar is looked at closer."""

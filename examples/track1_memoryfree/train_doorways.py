@@ -51,7 +51,7 @@ def best_count(counts: list[int]) -> int:
 def learn(houses: int) -> dict[str, np.ndarray]:
     import gymnasium as gym
 
-    import simhost.track1  # noqa: F401 - registers the Track 1 envs
+    import simhost.worlds.track1  # noqa: F401 - registers the Track 1 envs
 
     r, f = len(ROOM_TYPES), len(FURNITURE)
     neighbour = np.ones((r, r))

@@ -3,7 +3,7 @@
 Exploration: a few dozen random primitives (mostly moves; now and then one on a random
 visible id), then a minimal ``world_model.json`` (the rooms whose signs it read and what it
 sees last) and an end of stage. Planning: no answers, no plan. Execution: random
-primitives, then ``done``. Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``),
+primitives, then ``done``. Uses only ``simhost.client`` (``RemoteEnv``, ``OutputFiles``),
 numpy and the standard library.
 """
 
@@ -13,7 +13,7 @@ import sys
 
 import numpy as np
 
-from simhost.agent import OutputFiles, RemoteEnv
+from simhost.client import OutputFiles, RemoteEnv
 
 STEPS = {"exploration": 40, "execution": 60}
 

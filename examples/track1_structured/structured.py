@@ -32,8 +32,8 @@ from typing import Any
 
 from lookahead import LookaheadPlanner
 
-from simhost.agent import TimeStep
-from simhost.skills import AFFORDANCES, Thing, WorldModel, face, reach_radius
+from simhost.client import TimeStep
+from simhost.client.skills import AFFORDANCES, Thing, WorldModel, face, reach_radius
 
 NOISE = (0.02, 0.03)
 """Position noise of a detection, a + b × distance (m): the official splits' sensor."""

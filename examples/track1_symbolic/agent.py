@@ -1,4 +1,5 @@
-"""Track 1 symbolic agent built only on the public skills (``simhost.skills``, docs/skills.md).
+"""Track 1 symbolic agent built only on the public skills (``simhost.client.skills``,
+docs/skills.md).
 
 It has no motion code of its own: it explores with ``explore_next()`` until nothing is left
 (or the stage runs down), writes ``world_model.json``, answers the queries from the model,
@@ -17,8 +18,8 @@ import re
 import sys
 from typing import Any
 
-from simhost.agent import OutputFiles, RemoteEnv, TimeStep
-from simhost.skills import (
+from simhost.client import OutputFiles, RemoteEnv, TimeStep
+from simhost.client.skills import (
     AFFORDANCES,
     EXPLORED,
     NOT_IN_MODEL,

@@ -21,7 +21,7 @@ from entry import main  # noqa: E402
 from seeing import SeeingEnv  # noqa: E402
 from structured import StructuredPlanner  # noqa: E402
 
-from simhost.agent import RemoteEnv  # noqa: E402
+from simhost.client import RemoteEnv  # noqa: E402
 
 
 class VisionPlanner(StructuredPlanner):

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from detector import EYE, FOVY, TILT, Detector
 
-from simhost.agent import RemoteEnv, TimeStep
+from simhost.client import RemoteEnv, TimeStep
 
 MATCH = {"item": 0.45, "door": 1.0, "big": 0.9}
 """How far (metres) a sighting may lie from a remembered thing of its group to be it."""

@@ -225,8 +225,8 @@ def gather(houses: int, seed0: int) -> list[Frame]:
     """Views of ``houses`` houses from ``seed0`` on (see the module)."""
     import gymnasium as gym
 
-    import simhost.track1  # noqa: F401 - registers the Track 1 envs
-    from simhost.track1 import PerturbationError
+    import simhost.worlds.track1  # noqa: F401 - registers the Track 1 envs
+    from simhost.worlds.track1 import PerturbationError
 
     rng = np.random.default_rng(seed0)
     frames: list[Frame] = []

@@ -2,7 +2,7 @@
 
 (``agent.py`` is the entry point; the task-model baseline builds on this module.)
 
-Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), ``schemas`` (the packet's
+Uses only ``simhost.client`` (``RemoteEnv``, ``OutputFiles``), ``schemas`` (the packet's
 ``DemoManifest``, ``TaskModel``), numpy and the standard library.
 
 - ``demonstration``: reads the packet where the host says (``$EAGC_INPUT/<folder>``) and
@@ -33,7 +33,7 @@ from parse import DemoParse, parse
 from taskmodel import task_model
 
 from schemas import DemoManifest
-from simhost.agent import OutputFiles, RemoteEnv
+from simhost.client import OutputFiles, RemoteEnv
 
 GIVE_UP_STEPS = 10  # idle steps after the controller is through before ending the attempt
 GOAL_EVENTS = ("turned", "opened", "closed", "inserted", "pressed", "aligned")

@@ -1,7 +1,7 @@
 """Imitation baseline for Track 2 (T-OSVI style): a one-shot imitation policy conditioned on the
 demonstration, learned offline, with no explicit world model.
 
-Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), ``schemas``, numpy and the
+Uses only ``simhost.client`` (``RemoteEnv``, ``OutputFiles``), ``schemas``, numpy and the
 standard library. ``policy.npz`` holds one weight matrix per family, fitted by
 ``train.py`` on expert rollouts the gymnasium benches generate; ``policy.py`` says how the
 policy reads the demonstration. Each attempt runs the policy from the demonstration's start
@@ -21,7 +21,7 @@ import numpy as np
 from policy import Policy
 
 from schemas import DemoManifest, TaskModel
-from simhost.agent import OutputFiles, RemoteEnv
+from simhost.client import OutputFiles, RemoteEnv
 
 HERE = Path(__file__).resolve().parent
 INPUT = Path(os.environ.get("EAGC_INPUT", "/input"))

@@ -109,7 +109,7 @@ def main() -> int:
 
     import gymnasium as gym
 
-    from simhost.track2 import (
+    from simhost.worlds.track2 import (
         FAMILIES,
         ScriptedExpert,
         env_id,

@@ -1,6 +1,6 @@
 """Task-model baseline for Track 2 (OSVI-WM + task model style).
 
-Uses only ``simhost.agent``, ``schemas``, numpy and the standard library; it builds on the
+Uses only ``simhost.client``, ``schemas``, numpy and the standard library; it builds on the
 demo-parser image (its perception, primitives and task-model writer).
 
 - From the demonstration it builds an explicit task model: the stages (key-stage labels),

@@ -2,7 +2,7 @@
 new instance in the frame of the part it was relative to, followed closed loop, adapted again
 between attempts to what the held part did.
 
-Uses only ``simhost.agent`` (``RemoteEnv``, ``OutputFiles``), ``schemas`` (the packet's
+Uses only ``simhost.client`` (``RemoteEnv``, ``OutputFiles``), ``schemas`` (the packet's
 ``DemoManifest``), numpy and the standard library.
 
 Parsing cuts the demonstration at its grasp and release annotations. Before a grasp the hand
@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from schemas import DemoManifest, TaskModel
-from simhost.agent import OutputFiles, RemoteEnv
+from simhost.client import OutputFiles, RemoteEnv
 
 INPUT = Path(os.environ.get("EAGC_INPUT", "/input"))
 DPOS, DYAW, WMAX = 0.015, 0.15, 0.09

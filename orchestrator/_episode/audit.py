@@ -14,7 +14,7 @@ does not keep, such as the segmentation image), and checks the agent's files:
   message)`` with a ``schemas.HostMessage``, ``action(step, action, result)`` with the
   checked action and a ``schemas.ActionResult``), ``Snapshot(name, step, files)`` and
   ``check_episode(shown, scenario_params=, events=, snapshots=, log=)`` (``events``: the
-  ``simhost._records`` event models, in log order) returning flags
+  ``simhost.host._records`` event models, in log order) returning flags
   (``check``, ``severity``, ``message``, ``step``, ``subjects``).
 
 What the agent was shown comes from the log's replies (observation JSON, messages, action
@@ -40,7 +40,7 @@ from orchestrator._episode.replay import ReplayError, replay
 from plugins import load_track
 from plugins._audit import STEP_SLACK, Finding, HostSteps, Severity, log_step_findings
 from schemas import LogRecord, ObservationReply, SchemaError, parse_episode_log
-from simhost._records import (
+from simhost.host._records import (
     HostEventModel,
     McapRecordError,
     ScenarioRecord,

@@ -17,9 +17,9 @@ from typing import Any
 
 from orchestrator._errors import OrchestratorError
 from plugins import Scenario, load_track
-from simhost._actions import check_action
-from simhost._episode import Observation
-from simhost._records import (
+from simhost.host._actions import check_action
+from simhost.host._episode import Observation
+from simhost.host._records import (
     AnswerRequest,
     EndStageRequest,
     FullState,

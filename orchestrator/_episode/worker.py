@@ -63,8 +63,8 @@ from schemas import (
     Limits,
     unix_endpoint,
 )
-from simhost._host import HostConfig, HostOutcome, SimHost
-from simhost._mcap import McapRecorder
+from simhost.host._host import HostConfig, HostOutcome, SimHost
+from simhost.host._mcap import McapRecorder
 
 log = logging.getLogger("eagc.worker")
 

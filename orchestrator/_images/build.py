@@ -3,8 +3,8 @@
 - ``eagc/base:bookworm``: a Debian root with python3 made by ``mmdebstrap`` from the Debian
   mirror apt already uses, then ``docker import``-ed.
 - ``eagc/agent-base:latest``: the base plus the agent client (this repository's wheel and
-  its three light dependencies: pydantic, eclipse-zenoh, numpy; ``simhost.agent`` and the
-  Track 1 skills ``simhost.skills`` are what an agent imports), installed from wheels
+  its three light dependencies: pydantic, eclipse-zenoh, numpy; ``simhost.client`` and the
+  Track 1 skills ``simhost.client.skills`` are what an agent imports), installed from wheels
   downloaded on the host with ``pip install --no-index``; built with no network. The eagc
   wheel is written by ``orchestrator._images.wheel`` (no build backend, no download: it works the
   same in a fresh venv, as root with the system Python, or offline).
@@ -37,10 +37,8 @@ BASE_IMAGE = "eagc/base:bookworm"
 AGENT_BASE_IMAGE = "eagc/agent-base:latest"
 HASH_LABEL = "eagc.build-hash"
 MIRROR = "http://deb.debian.org/debian"
-CLIENT_SOURCES = ("pyproject.toml", "schemas", "simhost/__init__.py", "simhost/agent.py",
-                  "simhost/_wire.py", "simhost/_transport.py", "simhost/_outputs.py",
-                  "simhost/_errors.py", "simhost/_gym_client.py", "simhost/_plain_spaces.py",
-                  "simhost/_remote.py", "simhost/skills")
+CLIENT_SOURCES = ("pyproject.toml", "schemas", "simhost/__init__.py", "simhost/_wire.py",
+                  "simhost/_transport.py", "simhost/_errors.py", "simhost/client")
 
 
 def example_images() -> dict[str, Path]:

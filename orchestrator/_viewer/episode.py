@@ -21,7 +21,7 @@ import numpy as np
 
 from orchestrator._viewer import frames as fr
 from schemas import EpisodeResult, ErrorReply, HelloReply, ObservationReply
-from simhost._records import (
+from simhost.host._records import (
     CompressedImage,
     FrameTransforms,
     FullState,
@@ -367,7 +367,7 @@ def _map(folder: Path, log: _Log, view: EpisodeView) -> None:
 
 def _house(scenario: ScenarioRecord, view: EpisodeView) -> None:
     from plugins.track1 import Track1
-    from simhost.track1 import TOPDOWN_MARGIN, TOPDOWN_SCALE, generate_house, render_topdown
+    from simhost.worlds.track1 import TOPDOWN_MARGIN, TOPDOWN_SCALE, generate_house, render_topdown
 
     spec = Track1().hidden(scenario)
     layout = generate_house(scenario.seed, params=spec.split.params)
@@ -388,13 +388,13 @@ class _Plan:
         self.layout = layout
 
     def ground_truth(self) -> Any:
-        from simhost.track1 import initial_ground_truth
+        from simhost.worlds.track1 import initial_ground_truth
 
         return initial_ground_truth(self.layout).model_copy(update={"objects": ()})
 
 
 def _attempts(folder: Path, paths: dict[int, list[list[float]]], view: EpisodeView) -> None:
-    from simhost.track2 import render_attempt_vs_demo
+    from simhost.worlds.track2 import render_attempt_vs_demo
 
     demo = folder / "input" / "demo"
     if not (demo / "manifest.json").is_file():

@@ -1,6 +1,6 @@
 """Camera frames for the page: PNGs from the MCAP log, made into small thumbnails.
 
-The recorder writes PNGs without filters (``simhost._png``) and depth as raw float32; a
+The recorder writes PNGs without filters (``simhost.host._png``) and depth as raw float32; a
 page carries thumbnails at most ``THUMB_WIDTH`` pixels wide (a wider frame is scaled down
 to exactly that width, whatever the camera's resolution: 96x72 stays as it is, 256x192
 shows at 192x144, 640x480 too), PNG with the "up" filter, as ``data:`` URIs, within a byte
@@ -41,7 +41,7 @@ class Frame:
 
 def decode_png(data: bytes) -> np.ndarray:
     """Pixels of an 8-bit grey, RGB or RGBA PNG whose rows use no filter or "up" (what
-    ``simhost._png`` and this module write); ValueError otherwise."""
+    ``simhost.host._png`` and this module write); ValueError otherwise."""
     if data[:8] != b"\x89PNG\r\n\x1a\n":
         raise ValueError("not a PNG")
     pos, idat, head = 8, [], b""

@@ -1,7 +1,7 @@
 """Organizers only: an agent's model beside the hidden truth, item by item.
 
 Track 1: the ``world_model.json`` graded at the end of exploration against the house as
-generated (``simhost.track1.initial_ground_truth``: rooms, room-graph edges, doors,
+generated (``simhost.worlds.track1.initial_ground_truth``: rooms, room-graph edges, doors,
 containers and objects; the truth the scorer uses is taken when exploration ends, so a
 door the agent opened or an object moved during exploration can differ here). Lines name
 what the model missed (``missing``), invented (``extra``) or got wrong (``wrong``).
@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from schemas import WorldModel
-from simhost._records import ScenarioRecord
+from simhost.host._records import ScenarioRecord
 
 #: Lines listed per kind of difference, at most.
 MAX_LINES = 40
@@ -28,7 +28,7 @@ def _listed(label: str, items: list[str]) -> list[str]:
 def track1_differences(scenario: ScenarioRecord, model: WorldModel) -> list[str]:
     """What ``model`` (a world_model.json) gets wrong about the scenario's house."""
     from plugins.track1 import Track1
-    from simhost.track1 import generate_house, initial_ground_truth
+    from simhost.worlds.track1 import generate_house, initial_ground_truth
 
     spec = Track1().hidden(scenario)
     gt = initial_ground_truth(generate_house(scenario.seed, params=spec.split.params))

@@ -24,7 +24,7 @@ from plugins._base import EPISODE_LOG, FileRule, Scenario, ScoringInput, TrackPl
 from schemas import EndReason, FieldSpec, ScoreCard, WorldModel
 from schemas._io import ignored_note
 from schemas._protocol import ActionResult, HostMessage
-from simhost._episode import (
+from simhost.host._episode import (
     EpisodeOutcome,
     Observation,
     Pose,
@@ -116,7 +116,7 @@ class SanityEpisode(TrackEpisode):
     """One live sanity episode around ``SanityArenaEnv``."""
 
     def __init__(self, scenario: Scenario[SanityScenario], hidden: SanityScenario) -> None:
-        from simhost.sanity import HALF, MAX_DEPTH, SENSE_RADIUS, SanityArenaEnv
+        from simhost.worlds.sanity import HALF, MAX_DEPTH, SENSE_RADIUS, SanityArenaEnv
 
         self.scenario = scenario
         render = bool(hidden.render_rgbd)
@@ -288,7 +288,7 @@ class SanityTrack(TrackPlugin[SanityScenario, SanityOutcome]):
     def make_scenario(
         self, *, seed: int, split: str, params: Mapping[str, Any], index: int | None = None
     ) -> Scenario[SanityScenario]:
-        from simhost.sanity import sample_point
+        from simhost.worlds.sanity import sample_point
 
         sp = SanitySplitParams.model_validate({**self.splits.get(split, (1.0, {}))[1],
                                                **params})

@@ -23,7 +23,7 @@ from collections.abc import Iterable, Sequence
 
 from plugins.track1._paths import Point, route, tour
 from plugins.track1._types import Goal, Track1Scenario
-from simhost.track1 import HouseLayout, HouseTruth
+from simhost.worlds.track1 import HouseLayout, HouseTruth
 
 EXPLORATION_FACTOR = 1.3
 EXECUTION_FACTOR = 2.0

@@ -43,7 +43,7 @@ from plugins.track1._types import (
 from plugins.track1.audit import Shown
 from schemas import ActionResult, EndReason, FieldSpec, HostMessage
 from simhost import Observation, Pose, StepOutcome, TrackEpisode
-from simhost.track1 import HouseInfo
+from simhost.worlds.track1 import HouseInfo
 
 EXPLORATION, PLANNING, EXECUTION = "exploration", "planning", "execution"
 DEADLOCK_STEPS = 30
@@ -85,7 +85,7 @@ _OBS_TEXT = {
 def _action_spec(config: Any = None) -> tuple[FieldSpec, ...]:
     """The action fields; ``config`` (a ``HouseEnvConfig``) with ``actions_by="pixel"``:
     ``target_px``/``tool_px`` instead of the ids."""
-    from simhost.track1 import MAX_IDS, PRIMITIVES
+    from simhost.worlds.track1 import MAX_IDS, PRIMITIVES
 
     common = (
         FieldSpec(name="primitive", dtype="int32", choices=PRIMITIVES,
@@ -118,7 +118,7 @@ def _action_spec(config: Any = None) -> tuple[FieldSpec, ...]:
 
 
 def _observation_spec(env: Any) -> tuple[FieldSpec, ...]:
-    from simhost.track1 import CATEGORIES, COLOURS, KINDS, ROOM_TYPES, STATES
+    from simhost.worlds.track1 import CATEGORIES, COLOURS, KINDS, ROOM_TYPES, STATES
 
     names = {"room_type": ROOM_TYPES, "det_kind": KINDS, "det_category": CATEGORIES,
              "det_colour": COLOURS, "det_state": STATES}
@@ -152,7 +152,7 @@ class Track1Episode(TrackEpisode):
     """One live Track 1 episode."""
 
     def __init__(self, scenario: Scenario[Track1Scenario], spec: Track1Scenario) -> None:
-        from simhost.track1 import HouseEnv
+        from simhost.worlds.track1 import HouseEnv
 
         self.scenario = scenario
         self.spec = spec
@@ -191,7 +191,7 @@ class Track1Episode(TrackEpisode):
 
     @property
     def house(self) -> Any:
-        """The simulated house (``simhost.track1.House``)."""
+        """The simulated house (``simhost.worlds.track1.House``)."""
         assert self.env.house is not None
         return self.env.house
 
@@ -289,7 +289,7 @@ class Track1Episode(TrackEpisode):
         return tuple(events)
 
     def step(self, stage: str, action: Mapping[str, Any]) -> StepOutcome:
-        from simhost.track1 import PRIMITIVES
+        from simhost.worlds.track1 import PRIMITIVES
 
         self.steps += 1
         self.stage_steps[stage] = self.stage_steps.get(stage, 0) + 1
@@ -413,7 +413,7 @@ class Track1Episode(TrackEpisode):
 
     def house_task(self, goal: Goal) -> Any:
         """A goal as the environment's ``HouseTask``."""
-        from simhost.track1 import HouseTask
+        from simhost.worlds.track1 import HouseTask
 
         if goal.kind == "place":
             return HouseTask(kind="place", object=goal.object,

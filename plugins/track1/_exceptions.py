@@ -47,7 +47,7 @@ from plugins.track1._budgets import backup_places
 from plugins.track1._types import ExceptionRecord, PlannedException, Task, Track1Plan
 
 if TYPE_CHECKING:
-    from simhost.track1 import ActionResult, HouseEnv
+    from simhost.worlds.track1 import ActionResult, HouseEnv
 
 
 class LiveEpisode(Protocol):
@@ -176,7 +176,7 @@ class ControlledException:
     def _apply(self, ep: LiveEpisode, change: Callable[[], dict[str, Any]], *,
                quiet: bool = False) -> list[Event]:
         """Applies a change if every goal stays completable; records the exception."""
-        from simhost.track1 import PerturbationError
+        from simhost.worlds.track1 import PerturbationError
 
         assert self.plan is not None and self.subject is not None
         env = ep.env

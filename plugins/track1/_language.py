@@ -23,7 +23,7 @@ from collections import Counter
 
 import numpy as np
 
-from simhost.track1 import HouseTruth
+from simhost.worlds.track1 import HouseTruth
 
 VERBS = {"wipe": ("clean", "wipe"), "cut": ("slice", "cut"), "water": ("water",)}
 """Verbs of each affordance; the first is the dev split's."""

@@ -31,7 +31,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from schemas import WorldModel
-from simhost.track1 import FurnitureTruth, HouseTruth
+from simhost.worlds.track1 import FurnitureTruth, HouseTruth
 
 ITEM_RADIUS = 0.75
 """Largest distance (m) at which an entry pairs with a true thing (the inventory's

@@ -11,7 +11,7 @@ import heapq
 import math
 from collections.abc import Iterable, Sequence
 
-from simhost.track1 import HouseLayout
+from simhost.worlds.track1 import HouseLayout
 
 Point = tuple[float, float]
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from plugins._picture_log import read_episode, title_lines
 from plugins.track1._types import Task, Track1Scenario
-from simhost._records import ExceptionEvent, HostEventModel, ScenarioRecord
+from simhost.host._records import ExceptionEvent, HostEventModel, ScenarioRecord
 
 ITEM, GOAL, EXCEPTION = (220, 0, 200), (0, 170, 210), (220, 20, 20)
 STAGE_COLOURS = {"exploration": (30, 90, 220), "planning": (120, 120, 120),
@@ -36,7 +36,7 @@ class _Overlay:
     """Draws over a top-down picture in house coordinates."""
 
     def __init__(self, img: np.ndarray, height_m: float) -> None:
-        from simhost.track1 import TOPDOWN_MARGIN, TOPDOWN_SCALE
+        from simhost.worlds.track1 import TOPDOWN_MARGIN, TOPDOWN_SCALE
 
         self.img, self.height_m = img, height_m
         self.scale, self.margin = TOPDOWN_SCALE, TOPDOWN_MARGIN
@@ -79,7 +79,7 @@ def _mark_task(overlay: _Overlay, layout: Any, task: Task) -> None:
 
 def _framed(img: np.ndarray, title: list[str], legend: list[tuple[str, Colour]]) -> np.ndarray:
     """The picture with its title above, and its legend and a 1 m scale bar below."""
-    from simhost.track1 import TOPDOWN_SCALE, draw_text
+    from simhost.worlds.track1 import TOPDOWN_SCALE, draw_text
 
     width = max(img.shape[1], 420)
     entries: list[list[tuple[str, Colour]]] = [[]]
@@ -115,7 +115,7 @@ def _framed(img: np.ndarray, title: list[str], legend: list[tuple[str, Colour]])
 
 
 def _legend(*extra: tuple[str, Colour]) -> list[tuple[str, Colour]]:
-    from simhost.track1 import TOPDOWN_LEGEND
+    from simhost.worlds.track1 import TOPDOWN_LEGEND
 
     return [*TOPDOWN_LEGEND, ("goal item", ITEM), ("goal place", GOAL), *extra]
 
@@ -133,7 +133,7 @@ def preview(spec: Track1Scenario, seed: int, split: str, out_dir: str | Path) ->
     (the goals marked) beside the robot's first camera frame, titled with the split, the
     seed and the instruction. The frame is the split's own size, pixel for pixel what the
     agent gets (a split without a camera, ``dev``: ``PREVIEW_CAMERA``). Returns its path."""
-    from simhost.track1 import HouseEnv, render_topdown, write_png
+    from simhost.worlds.track1 import HouseEnv, render_topdown, write_png
 
     sensing = spec.split.config
     size = sensing.image_size if sensing.render_rgbd else PREVIEW_CAMERA
@@ -172,7 +172,7 @@ def _read_mcap(path: Path) -> tuple[ScenarioRecord, list[tuple[int, list[float]]
 def trajectory_png(episode_dir: str | Path) -> Path:
     """Draws an episode's robot trajectory over its house from ``host/episode.mcap``;
     writes ``host/trajectory.png`` and returns its path."""
-    from simhost.track1 import generate_house, render_topdown, write_png
+    from simhost.worlds.track1 import generate_house, render_topdown, write_png
 
     host = Path(episode_dir) / "host"
     mcap = host / "episode.mcap"

@@ -29,7 +29,7 @@ import numpy as np
 
 from plugins.track1._language import words
 from plugins.track1._types import GradedQuery, Query, QueryKind
-from simhost.track1 import AFFORDANCES, HouseTruth
+from simhost.worlds.track1 import AFFORDANCES, HouseTruth
 
 QUERY_PLAN: tuple[tuple[QueryKind, int], ...] = (
     ("object_room", 3), ("door_state", 2), ("room_neighbours", 2), ("container_state", 1),

@@ -22,8 +22,8 @@ types), ``goals`` (inclusive range of clauses), ``language`` (``templates``: the
 split's six templates with the substitute rule stated; ``grammar``: the paraphrasing
 grammar), ``step_budgets`` (false: no per-episode step budgets, as on the dev split),
 ``house_params`` (an organizer parameter pack: fields of
-``simhost.track1.HouseParams``), ``env`` (sensing options: fields of
-``simhost.track1.HouseEnvConfig``), ``render_rgbd`` and ``image_size``.
+``simhost.worlds.track1.HouseParams``), ``env`` (sensing options: fields of
+``simhost.worlds.track1.HouseEnvConfig``), ``render_rgbd`` and ``image_size``.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ from plugins.track1._budgets import execution_steps, exploration_steps
 from plugins.track1._queries import plan_queries
 from plugins.track1._tasks import make_task
 from plugins.track1._types import EXCEPTION_TYPES, ExceptionType, Track1Scenario
-from simhost.track1 import (
+from simhost.worlds.track1 import (
     ConfigError,
     HouseSplit,
     generate_house,

@@ -72,7 +72,7 @@ from plugins.track1.audit import (
 )
 from schemas import LogRecord, ScoreCard, WorldModel
 from schemas._io import ignored_note
-from simhost.track1 import HouseTruth
+from simhost.worlds.track1 import HouseTruth
 
 WEIGHTS = {"task": 0.40, "model": 0.20, "recovery": 0.20, "efficiency": 0.10, "safety": 0.10}
 MODEL_PARTS = {"topology": 0.25, "objects": 0.25, "states": 0.15, "affordances": 0.10,

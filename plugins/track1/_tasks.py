@@ -31,7 +31,7 @@ from plugins.track1._language import (
     words,
 )
 from plugins.track1._types import Goal, PlannedException, Task
-from simhost.track1 import AFFORDANCE_EFFECTS, HouseLayout, HouseTruth
+from simhost.worlds.track1 import AFFORDANCE_EFFECTS, HouseLayout, HouseTruth
 
 _TRIES = 30
 

@@ -48,7 +48,7 @@ class Track1(TrackPlugin[Track1Scenario, Track1Outcome]):
     }
     extra_splits = ("vision",)
     #: Scenario parameters of the extra splits: ``vision`` has the standard split's tasks,
-    #: exceptions and budgets (its houses and sensing: ``simhost.track1.SPLITS``).
+    #: exceptions and budgets (its houses and sensing: ``simhost.worlds.track1.SPLITS``).
     extra_params: ClassVar[Mapping[str, Mapping[str, Any]]] = {
         "vision": splits["standard"][1],
     }

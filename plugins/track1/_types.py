@@ -10,8 +10,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from simhost._episode import EpisodeOutcome
-from simhost.track1 import HouseSplit, HouseTruth
+from simhost.host._episode import EpisodeOutcome
+from simhost.worlds.track1 import HouseSplit, HouseTruth
 
 ExceptionType = Literal["door_lock", "object_relocation", "container_unavailable",
                         "tool_substitution"]

@@ -1,6 +1,6 @@
 """Track 1's audit checks: the agent's files against what it had been shown (public API).
 
-Pure functions over what the host recorded (``simhost._records``' event models, the
+Pure functions over what the host recorded (``simhost.host._records``' event models, the
 protocol's ``HostMessage`` and ``ActionResult``) or the same as plain dicts, for the
 organizers' audit (``eagc audit``) and for any other caller that must say the same thing
 (a team's notes: early detections, ids never shown); each reads the fields it names through
@@ -45,7 +45,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from plugins._audit import STEP_SLACK
 from schemas import ActionResult, HostMessage, LogRecord, SchemaError, WorldModel, parse_json
-from simhost._records import (
+from simhost.host._records import (
     ExceptionArmedEvent,
     ExceptionEvent,
     ExceptionObservableEvent,
@@ -55,7 +55,7 @@ from simhost._records import (
 
 Severity = Literal["flag", "warning", "note"]
 
-#: Primitive names in action-index order (``simhost.track1.PRIMITIVES``; kept here so that
+#: Primitive names in action-index order (``simhost.worlds.track1.PRIMITIVES``; kept here so that
 #: this module imports no simulator).
 PRIMITIVES = ("noop", "move", "open", "close", "pick", "place", "use", "done")
 #: Primitives whose ``target`` names an instance.

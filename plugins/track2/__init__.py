@@ -5,7 +5,7 @@ Public API: ``Track2`` (the plugin), ``Track2Episode`` (the live episode),
 parameters), ``Track2Outcome`` / ``AttemptRecord``
 (what an episode achieved), ``attempt_png`` (an attempt drawn beside the demonstration, from
 an episode folder), and the scoring helpers ``model_score`` / ``model_parts`` (a task
-model against ``simhost.track2.task_truth``).
+model against ``simhost.worlds.track2.task_truth``).
 """
 
 from plugins.track2._episode import Track2Episode

@@ -31,8 +31,8 @@ import numpy as np
 from plugins.track2._outcome import AttemptRecord, Track2Outcome
 from plugins.track2._scenario import Track2Scenario
 from schemas._protocol import ActionResult, EndReason, FieldSpec, HostMessage
-from simhost._episode import Observation, Pose, StageEnd, StepOutcome, TrackEpisode
-from simhost.track2 import BenchInfo
+from simhost.host._episode import Observation, Pose, StageEnd, StepOutcome, TrackEpisode
+from simhost.worlds.track2 import BenchInfo
 
 DEMONSTRATION, PARSING, EXECUTION = "demonstration", "parsing", "execution"
 DEMO_FOLDER = "demo"
@@ -77,7 +77,7 @@ class Track2Episode(TrackEpisode):
     """The live episode around a ``BenchEnv`` of the hidden instance."""
 
     def __init__(self, hidden: Track2Scenario) -> None:
-        from simhost.track2 import BenchEnv
+        from simhost.worlds.track2 import BenchEnv
 
         self.hidden = hidden
         self.params = self.hidden.instance
@@ -141,7 +141,7 @@ class Track2Episode(TrackEpisode):
 
     def poses(self) -> Mapping[str, Pose]:
         """The TCP and every present part, true poses (organizer-only)."""
-        from simhost.track2._observe import quat_z
+        from simhost.worlds.track2._observe import quat_z
 
         ee = self.env.sim.ee()
         out = {"tcp": Pose(position=(float(ee[0]), float(ee[1]), float(ee[2])),

@@ -19,7 +19,7 @@ from pydantic import BaseModel, ConfigDict
 from plugins.track2._episode import DEMO_FOLDER, EXECUTION
 from plugins.track2._scenario import Track2Scenario
 from schemas import EpisodeResult, ErrorReply, HelloReply, ObservationReply
-from simhost._records import (
+from simhost.host._records import (
     AttemptEndEvent,
     McapRecordError,
     ScenarioRecord,
@@ -94,7 +94,7 @@ def _with_axis_values(png: bytes, demo_xyz: np.ndarray, attempt_xyz: np.ndarray,
     """The picture of ``render_attempt_vs_demo`` with the range of each panel's axes in
     metres: horizontal (X) under the panel, vertical (Y, Z) at its right edge. The extent
     is the one that function draws: both paths' bounding box, widened 15 %."""
-    from simhost.track2._raster import Canvas, decode_png
+    from simhost.worlds.track2._raster import Canvas, decode_png
 
     both = np.vstack([demo_xyz[:, :3], attempt_xyz[:, :3]])
     lo, hi = both.min(axis=0), both.max(axis=0)
@@ -118,7 +118,7 @@ def _with_axis_values(png: bytes, demo_xyz: np.ndarray, attempt_xyz: np.ndarray,
 
 def _draw(demo: Path, attempt_xyz: np.ndarray, out: Path, title: str) -> None:
     from simhost import write_png
-    from simhost.track2 import read_demo_packet, render_attempt_vs_demo
+    from simhost.worlds.track2 import read_demo_packet, render_attempt_vs_demo
 
     png = render_attempt_vs_demo(demo, attempt_xyz, title=title)
     demo_xyz = np.asarray(read_demo_packet(demo).arrays["obs_proprio"], dtype=float)
@@ -139,7 +139,7 @@ def attempt_png(
       FileNotFoundError: no MCAP log in the folder.
       ValueError: not a Track 2 episode, or the attempt has no recorded step.
     """
-    from simhost.track2 import write_demo_packet
+    from simhost.worlds.track2 import write_demo_packet
 
     root = Path(episode_dir)
     mcap = root / "host" / "episode.mcap"
@@ -179,9 +179,9 @@ def preview_png(scenario: Any, out: Path) -> Path:
     """The demonstrated source beside the hidden instance of a (public) seed: a top view of
     their parts (blue: source, orange: instance; 5 cm scale bar) over the overview camera's
     picture of each, titled with track, seed, split and family. Returns the PNG's path."""
-    from simhost.track2 import BenchEnv
-    from simhost.track2._picture import ATTEMPT_RGB, DEMO_RGB, INK, PAPER, _resize
-    from simhost.track2._raster import Canvas
+    from simhost.worlds.track2 import BenchEnv
+    from simhost.worlds.track2._picture import ATTEMPT_RGB, DEMO_RGB, INK, PAPER, _resize
+    from simhost.worlds.track2._raster import Canvas
 
     hidden = _hidden(scenario)
     shots, rows = [], []

@@ -1,6 +1,6 @@
 """Hidden Track 2 scenarios: a family, a demonstrated source and a hidden instance near it.
 
-The split names a preset of ``simhost.track2.SPLITS`` (``dev``, ``standard``,
+The split names a preset of ``simhost.worlds.track2.SPLITS`` (``dev``, ``standard``,
 ``challenge``; another split name must say ``preset``). From the episode seed
 (``numpy.random.default_rng(seed)``) come four sub-seeds: the source (drawn around the
 bench's canonical source, spread ``source_spread``), the hidden instance (around the source,
@@ -44,7 +44,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator
 
 from plugins._errors import PluginError
-from simhost.track2 import (
+from simhost.worlds.track2 import (
     FAMILIES,
     SPLITS,
     BenchConfig,
@@ -66,7 +66,7 @@ class Track2SplitParams(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     preset: str | None = None
-    """The preset of ``simhost.track2.SPLITS`` (None: the split's own name)."""
+    """The preset of ``simhost.worlds.track2.SPLITS`` (None: the split's own name)."""
     family: str | None = None
     """One family for every episode (None: balanced by index, or by seed)."""
     difficulty: float | None = None
@@ -83,7 +83,7 @@ class Track2SplitParams(BaseModel):
     """An observation of images without the parts rows."""
     image_size: tuple[int, int] | None = None
     """``[height, width]`` of the RGB-D images, each in [16, 1024] (None: the preset's,
-    ``simhost.track2.OFFICIAL_IMAGE_SIZE`` on the official splits)."""
+    ``simhost.worlds.track2.OFFICIAL_IMAGE_SIZE`` on the official splits)."""
 
     @field_validator("family", mode="before")
     @classmethod
@@ -197,7 +197,7 @@ def expert_steps(instance_json: str, bench_json: str, seed: int, bias_seed: int 
     ``attempts`` attempts it solved, attempt ``k`` reset with ``seed + k - 1`` (and the
     episode's ``bias_seed``); ``None`` if it solved none within ``cap`` steps each.
     ``observed``: it reads the observations, not the simulation."""
-    from simhost.track2 import BenchEnv, ScriptedExpert
+    from simhost.worlds.track2 import BenchEnv, ScriptedExpert
 
     bench = BenchConfig.model_validate_json(bench_json)
     if not bench.observation.parts:  # the observation expert reads the parts rows

@@ -41,7 +41,7 @@ from typing import Any
 
 from plugins.track2._outcome import Track2Outcome
 from schemas import TaskModel
-from simhost.track2 import TaskTruth
+from simhost.worlds.track2 import TaskTruth
 
 WEIGHTS = {"success": 0.45, "adaptation": 0.20, "generalization": 0.15, "task_model": 0.10,
            "stability": 0.10}

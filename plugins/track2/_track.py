@@ -3,7 +3,7 @@
 Stages (Table V, official budgets): ``demonstration`` 5 min, ``parsing`` 20 min (nothing
 moves), ``execution`` 30 min with up to three attempts (see ``_episode``). The packet
 (``eagc-demo/v2``) is written by ``write_inputs`` into the read-only input folder
-(``/input/demo`` in the container). Splits (``simhost.track2.SPLITS``): the official
+(``/input/demo`` in the container). Splits (``simhost.worlds.track2.SPLITS``): the official
 ``standard`` and ``challenge`` (a robot's observation, a goal defined by the demonstration,
 wide variation; the final score's splits) and the public ``dev`` (today's level, an extra
 split); a campaign split of another name sets ``params.preset``. Families are balanced by
@@ -35,7 +35,7 @@ from plugins.track2._outcome import Track2Outcome
 from plugins.track2._scenario import Track2Scenario, make_track2_scenario
 from schemas import EpisodeResult, ScoreCard, TaskModel
 from schemas._io import ignored_note
-from simhost._episode import StageSpec, TrackEpisode
+from simhost.host._episode import StageSpec, TrackEpisode
 
 FAMILY_COLUMNS = (("insertion", "Insertion"), ("rotation", "Rotation"), ("assembly", "Assembly"),
                   ("opening", "Open/Close"), ("tool_use", "Tool Use"))
@@ -102,14 +102,14 @@ class Track2(TrackPlugin[Track2Scenario, Track2Outcome]):
 
     def write_inputs(self, scenario: Scenario[Track2Scenario], folder: Path) -> None:
         """The demonstration packet of the scenario's source, in ``folder/demo``."""
-        from simhost.track2 import write_demo_packet
+        from simhost.worlds.track2 import write_demo_packet
 
         s = self.hidden(scenario)
         write_demo_packet(folder / DEMO_FOLDER, s.source, seed=s.demo_seed, config=s.bench,
                           frames=s.demo_frames)
 
     def score(self, data: ScoringInput[Track2Scenario, Track2Outcome]) -> ScoreCard:
-        from simhost.track2 import task_truth
+        from simhost.worlds.track2 import task_truth
 
         s = self.hidden(data.scenario)
         truth = task_truth(s.instance, s.bench)

@@ -40,9 +40,9 @@ from schemas import (
     ScoreCard,
     StageInfo,
 )
-from simhost._actions import ActionError, check_action
-from simhost.agent import HostError, TimeStep
-from simhost.track1 import house_split
+from simhost.client import HostError, TimeStep
+from simhost.host._actions import ActionError, check_action
+from simhost.worlds.track1 import house_split
 
 _LIMITS = Limits()
 

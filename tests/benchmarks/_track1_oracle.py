@@ -38,11 +38,11 @@ from schemas import (
     Room,
     WorldModel,
 )
-from simhost.agent import OutputFiles, TimeStep
-from simhost.track1 import Door, Furniture, HouseTruth
+from simhost.client import OutputFiles, TimeStep
+from simhost.worlds.track1 import Door, Furniture, HouseTruth
 
 RES = 0.05
-ROBOT = 0.25 + 0.04  # the base's radius (simhost.track1's ROBOT_RADIUS) plus a margin
+ROBOT = 0.25 + 0.04  # the base's radius (simhost.worlds.track1's ROBOT_RADIUS) plus a margin
 TURN = math.pi / 4
 STEP = 0.5
 ASIDE = ((0.0, 0.2, 0.0), (0.0, -0.2, 0.0), (0.0, 0.35, 0.0), (0.0, -0.35, 0.0))

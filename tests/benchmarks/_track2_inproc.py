@@ -1,7 +1,7 @@
 """Run a Track 2 baseline's own code in this process, against the plugin's episode.
 
 ``run_inproc(folder, seed=..., split=..., index=...)`` plays one episode of the agent in
-``examples/<folder>/agent.py`` with ``simhost.agent.RemoteEnv`` replaced by :class:`LocalEnv`,
+``examples/<folder>/agent.py`` with ``simhost.client.RemoteEnv`` replaced by :class:`LocalEnv`,
 which drives ``Track2Episode`` exactly as the sim host does: the stage sequence, the
 stage's step cap (the smaller of the episode's ``step_budget`` and none other), refusals
 counted as invalid actions, the host's messages, the observation's JSON part merged with
@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 class LocalEnv:
-    """What an agent sees of ``simhost.agent.RemoteEnv``, driving one Track 2 episode."""
+    """What an agent sees of ``simhost.client.RemoteEnv``, driving one Track 2 episode."""
 
     episode_ref: Any = None  # set by run_inproc before the agent starts
 
@@ -84,7 +84,7 @@ class LocalEnv:
             self.over, self.end_reason = True, "completed"
 
     def _reply(self, out: Any) -> Any:
-        from simhost.agent import TimeStep
+        from simhost.client import TimeStep
 
         self.seq += 1
         msgs = tuple(self.pending) + tuple(out.messages if out is not None else ())
@@ -129,7 +129,7 @@ class LocalEnv:
 def run_inproc(folder: str, *, seed: int, split: str, index: int,
                params: dict[str, Any] | None = None) -> dict[str, Any]:
     """One episode of ``examples/<folder>`` in this process; the ``EpisodeResult`` as JSON."""
-    import simhost.agent as agent_mod
+    import simhost.client as agent_mod
     from plugins import load_track, score_episode
     from schemas import EpisodeResult, EpisodeStats, EpisodeStatus, TaskModel
 

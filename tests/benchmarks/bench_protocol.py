@@ -95,8 +95,8 @@ def _wait_forever() -> None:
 def serve_ours(sock: str, payload: str) -> None:
 
     from schemas._protocol import ActionResult, FieldSpec
-    from simhost._episode import Observation, StageSpec, StepOutcome, TrackEpisode
-    from simhost._host import HostConfig, SimHost
+    from simhost.host._episode import Observation, StageSpec, StepOutcome, TrackEpisode
+    from simhost.host._host import HostConfig, SimHost
 
     tensors = _observation_tensors(payload)
     obs = Observation(tensors=tensors)
@@ -316,7 +316,7 @@ def _measure(call: Any, warmup: int, n: int) -> list[int]:
 
 
 def client_ours(sock: str, payload: str, warmup: int, n: int) -> list[int]:
-    from simhost.agent import RemoteEnv
+    from simhost.client import RemoteEnv
 
     env = RemoteEnv(f"unixsock-stream/{sock}", EPISODE)  # the default a team uses
     try:

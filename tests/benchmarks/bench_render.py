@@ -8,8 +8,8 @@ raw MuJoCo in the same run, at the earlier small image size and at the official 
 Cases: Track 1 ``standard`` and ``challenge`` (one house each, seed ``--track1-seed``),
 Track 2 ``standard`` and ``challenge`` for each of ``--families`` (one sampled instance
 each, seed ``--track2-seed``), each at the earlier small size (Track 1 96x72, Track 2 128x96) and at
-the size the split's own config asks for (``simhost.track1.SPLITS[split].config.image_size``,
-``simhost.track2.SPLITS[split].bench.observation.image_size``); ``--size WxH`` adds one more
+the size the split's own config asks for (``simhost.worlds.track1.SPLITS[split].config.image_size``,
+``simhost.worlds.track2.SPLITS[split].bench.observation.image_size``); ``--size WxH`` adds one more
 size (a candidate before the tracks adopt it). For each case and size, in one process:
 
 1. record: ``reset(seed)``, then a policy's actions (Track 1: ``bench_track1``'s seeded
@@ -120,7 +120,7 @@ class _Track1:
     camera = "eye"
 
     def __init__(self, split: str, size: tuple[int, int], seed: int) -> None:
-        from simhost.track1 import HouseEnv
+        from simhost.worlds.track1 import HouseEnv
 
         self.split, self.size, self.seed = split, size, seed
         self.env = HouseEnv(split=split, render_rgbd=True, image_size=size)
@@ -134,7 +134,7 @@ class _Track1:
         return sim.model, sim.data
 
     def bare(self) -> Any:
-        from simhost.track1 import HouseEnv
+        from simhost.worlds.track1 import HouseEnv
 
         return HouseEnv(split=self.split, render_rgbd=False)
 
@@ -185,7 +185,7 @@ class _Track2:
     camera = "overview"
 
     def __init__(self, split: str, family: str, size: tuple[int, int], seed: int) -> None:
-        from simhost.track2 import BenchEnv
+        from simhost.worlds.track2 import BenchEnv
 
         self.split, self.family, self.size, self.seed = split, family, size, seed
         w, h = size
@@ -197,7 +197,7 @@ class _Track2:
         return e.model, e.data
 
     def bare(self) -> Any:
-        from simhost.track2 import BenchEnv
+        from simhost.worlds.track2 import BenchEnv
 
         return BenchEnv(family=self.family, instance_seed=self.seed, split=self.split,
                         render_rgbd=False)
@@ -223,7 +223,7 @@ class _Track2:
 
     def record(self, count: int) -> list[list[Any]]:
         """The privileged expert's episode, repeated until ``count`` steps."""
-        from simhost.track2 import ScriptedExpert
+        from simhost.worlds.track2 import ScriptedExpert
 
         self.env.reset(seed=self.seed)
         expert = ScriptedExpert(self.env)
@@ -414,11 +414,11 @@ def _has_gpu() -> bool:
 def official_size(track: str, split: str) -> tuple[int, int]:
     """(width, height) of the split's own observation config."""
     if track == "track1":
-        from simhost.track1 import SPLITS as T1
+        from simhost.worlds.track1 import SPLITS as T1
 
         w, h = T1[split].config.image_size
         return int(w), int(h)
-    from simhost.track2 import SPLITS as T2
+    from simhost.worlds.track2 import SPLITS as T2
 
     h, w = T2[split].bench.observation.image_size
     return int(w), int(h)
@@ -557,7 +557,7 @@ def main() -> int:
         return 0
 
     sys.path.insert(0, str(ROOT))
-    from simhost.track2 import FAMILIES
+    from simhost.worlds.track2 import FAMILIES
 
     families = [f for f in args.families.split(",") if f]
     unknown = [f for f in families if f not in FAMILIES]

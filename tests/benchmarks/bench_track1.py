@@ -49,7 +49,8 @@ ROOT = Path(__file__).resolve().parents[2]
 KINDS = ("standard", "challenge")
 SEEDS = (3, 7, 42)
 IMAGE = (320, 240)
-ROBOT_RADIUS = 0.25  # simhost.track1._mjcf.ROBOT_RADIUS (wandering moves keep clear of walls)
+# simhost.worlds.track1._mjcf.ROBOT_RADIUS (wandering moves keep clear of walls)
+ROBOT_RADIUS = 0.25
 # one cycle of the primitive mix: m move, n noop, o open, p pick
 MIX = "mmmnmmommpmmmnmmommp"
 PRIM = {"m": "move", "n": "noop", "o": "open", "p": "pick"}
@@ -122,7 +123,7 @@ def _move(rng: Any, scan: Any, backoff: bool) -> tuple[float, float]:
 def _action(
     rng: Any, code: str, obs: dict[str, Any], info: dict[str, Any], backoff: bool
 ) -> dict[str, Any]:
-    from simhost.track1 import make_action
+    from simhost.worlds.track1 import make_action
 
     if code == "m":
         forward, turn = _move(rng, obs["range_scan"], backoff)
@@ -142,7 +143,7 @@ def child_main(config: str, kind: str, seeds: list[int], n: int, warmup: int) ->
     import mujoco
     import numpy as np
 
-    from simhost.track1 import HouseEnv, HouseEnvConfig, HouseParams
+    from simhost.worlds.track1 import HouseEnv, HouseEnvConfig, HouseParams
 
     base_kib = _status_kib("VmRSS")
     cfg = HouseEnvConfig()
@@ -316,9 +317,9 @@ def _table(results: dict[tuple[str, str], dict[str, Any] | str], per_move: int) 
         "  physics of one uncollided move); x raw: median / raw median of the same house kind;",
         "  phys/step: mean physics steps per control step (counted from data.time); phys/s:",
         "  physics steps per second; peak RSS: VmHWM of the configuration's own fresh process",
-        "  (max over rounds); import MiB: its VmRSS after importing mujoco, numpy and",
-        "  simhost.track1, before any house is built; round medians: lowest-highest median ms",
-        "  of the rounds.",
+        "  (max over rounds); import MiB: its VmRSS after importing mujoco, numpy",
+        "  and simhost.worlds.track1, before any house is built; round medians:",
+        "  lowest-highest median ms of the rounds.",
     ]
     return lines
 

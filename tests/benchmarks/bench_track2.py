@@ -73,7 +73,7 @@ def _record(label: str, env: Any) -> Case:
     import mujoco
     import numpy as np
 
-    from simhost.track2 import ScriptedExpert
+    from simhost.worlds.track2 import ScriptedExpert
 
     sig = mujoco.mjtState.mjSTATE_INTEGRATION
     m, d = env.model, env.data
@@ -233,8 +233,8 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=None, help="interleaved rounds (default 3)")
     args = ap.parse_args()
 
-    from simhost.track2 import FAMILIES, BenchEnv, default_source
-    from simhost.track2._bench import SUBSTEPS
+    from simhost.worlds.track2 import FAMILIES, BenchEnv, default_source
+    from simhost.worlds.track2._bench import SUBSTEPS
 
     families = [f for f in FAMILIES if not args.families or f in args.families.split(",")]
     target = args.steps or (400 if args.quick else 2000)

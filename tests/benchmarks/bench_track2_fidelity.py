@@ -101,7 +101,7 @@ def _in_process(agent: str, split: str, seed: int, index: int) -> Any:
     from plugins.track2 import Track2Scenario
     from plugins.track2._episode import DEMONSTRATION, EXECUTION, PARSING
     from schemas import EpisodeResult, EpisodeStats, EpisodeStatus, TaskModel
-    from simhost.track2 import ScriptedExpert, task_truth
+    from simhost.worlds.track2 import ScriptedExpert, task_truth
 
     started = time.time()
     plugin = load_track("track2")

@@ -101,7 +101,7 @@ def test_quickstart_in_a_fresh_venv(engine: Any, tmp_path: Path, short_dir: Path
         r = subprocess.run([str(py), "-c", build], capture_output=True, text=True, env=env,
                            cwd=tmp_path, timeout=900)
         assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-3000:]
-        out = engine.containers.run(tag, ["python3", "-c", "import simhost.agent, schemas; "
+        out = engine.containers.run(tag, ["python3", "-c", "import simhost.client, schemas; "
                                           "print(schemas.CONTAINER.uid)"],
                                     network_mode="none", remove=True)
         assert out.decode().strip() == "10001"

@@ -15,7 +15,7 @@ import json
 import os
 import sys
 
-from simhost.agent import OutputFiles, RemoteEnv
+from simhost.client import OutputFiles, RemoteEnv
 
 MOVES = 12
 

@@ -96,7 +96,7 @@ def test_a_command_with_the_docker_runtime_is_a_usage_error(runs: Path) -> None:
 def test_an_agent_that_exits_0_too_soon_is_not_said_to_have_crashed() -> None:
     from orchestrator._episode.worker import _classify
     from schemas import ContainerExit, EpisodeStatus, Limits
-    from simhost._host import EndReason, HostOutcome
+    from simhost.host._host import EndReason, HostOutcome
 
     outcome = HostOutcome(end_reason=EndReason.STOPPED, stages_reached=["explore", "reach"])
     status, _, message = _classify(outcome, ContainerExit(exit_code=0), Limits(), [])

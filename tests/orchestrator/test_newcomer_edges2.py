@@ -101,7 +101,7 @@ def test_an_agent_that_never_says_hello_costs_the_scaled_startup(
 def test_classify_names_a_silent_agent_and_not_a_busy_one() -> None:
     from orchestrator._episode.worker import _classify
     from schemas import ContainerExit, EpisodeStatus, Limits
-    from simhost._host import EndReason, HostOutcome
+    from simhost.host._host import EndReason, HostOutcome
 
     def outcome(last: float) -> HostOutcome:
         return HostOutcome(end_reason=EndReason.BUDGET, stages_reached=["explore", "reach"],

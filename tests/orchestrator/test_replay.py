@@ -13,7 +13,7 @@ from orchestrator._episode.replay import replay
 from orchestrator._episode.worker import EpisodeSpec, run_episode
 from orchestrator._runtimes.local import LocalProcessRuntime
 from schemas import EpisodeStatus
-from simhost._host import HostConfig
+from simhost.host._host import HostConfig
 
 AGENT = Path(__file__).resolve().parents[2] / "examples" / "sanity_agent" / "agent.py"
 

@@ -62,8 +62,8 @@ def test_pip_installs_it_without_an_index_and_the_client_imports(tmp_path: Path)
     assert r.returncode == 0, r.stderr
     assert (target / "bin" / "eagc").is_file()  # the console script
     probe = (
-        "import importlib.metadata as m, simhost.agent, schemas, sys\n"
-        f"assert simhost.agent.__file__.startswith({str(target)!r}), simhost.agent.__file__\n"
+        "import importlib.metadata as m, simhost.client, schemas, sys\n"
+        f"assert simhost.client.__file__.startswith({str(target)!r}), simhost.client.__file__\n"
         "d = m.distribution('eagc')\n"
         "print(sorted(e.name for e in d.entry_points if e.group == 'eagc.tracks'))\n"
         "print(sorted(r.split(';')[0].split('>')[0] for r in d.requires if ';' not in r))\n"

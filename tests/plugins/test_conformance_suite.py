@@ -13,7 +13,7 @@ from plugins import Scenario, ScoringInput, StepOutcome
 from plugins.conformance import TrackConformance, sample_action
 from plugins.sanity import SanityEpisode, SanityTrack
 from schemas import FieldSpec, FileCheck, ScoreCard
-from simhost._actions import check_action
+from simhost.host._actions import check_action
 
 SPEC = (
     FieldSpec(name="velocity", dtype="float32", shape=(2,), low=-1.0, high=1.0),

@@ -134,7 +134,7 @@ def test_a_changed_variable_makes_both_pages_stale(monkeypatch):
 
 
 def test_the_client_section_names_every_timestep_field():
-    from simhost.agent import OutputFiles, RemoteEnv, TimeStep
+    from simhost.client import OutputFiles, RemoteEnv, TimeStep
 
     text = protocol_doc.client_section()
     for name in TimeStep._fields:
@@ -149,7 +149,7 @@ def test_the_client_section_names_every_timestep_field():
 def test_only_served_step_requests_are_counted(host_episode):
     """What the log-steps section says (``COUNTED``), played through a real host: hello,
     reset, end_stage and a step refused with an error reply leave the count alone."""
-    from simhost.agent import HostError, RemoteEnv
+    from simhost.client import HostError, RemoteEnv
 
     assert protocol_doc.COUNTED == ("step",)
     assert "`end_stage` requests" in protocol_doc.log_steps_section()

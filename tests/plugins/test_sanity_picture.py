@@ -15,7 +15,7 @@ import pytest
 
 from plugins.sanity._picture import MOVED, SCALE, STAGE_COLOURS, START, TARGET
 from plugins.sanity._track import SanityTrack
-from simhost.track2._raster import decode_png
+from simhost.worlds.track2._raster import decode_png
 
 AGENT = Path(__file__).resolve().parents[2] / "examples" / "sanity_agent" / "agent.py"
 

@@ -1,5 +1,5 @@
 """The Track 1 baselines (examples/track1_*): they share one copy of their library
-(examples/track1_common, the image they are built FROM, on simhost.skills), they run
+(examples/track1_common, the image they are built FROM, on simhost.client.skills), they run
 through the real episode worker (SimHost over Zenoh, MCAP, /output collection, scoring) as
 local processes, and the calibration benchmark's in-process harness scores an episode
 exactly as the worker does.
@@ -77,7 +77,7 @@ def test_each_library_module_has_one_copy() -> None:
     none that its image's ``COPY`` would write over the library's in /app."""
     library = {m.name for m in _modules(LIBRARY)}
     assert {"planner.py", "lookahead.py", "priors.py", "priors.npz"} <= library
-    # The map, the model, navigation and the instruction reader are simhost.skills'
+    # The map, the model, navigation and the instruction reader are simhost.client.skills'
     # (tests/simhost/test_skills.py).
     assert not {"mapping.py", "model.py", "skills.py", "parsing.py"} & library
     for name in BASELINES:
@@ -92,17 +92,17 @@ def test_each_baseline_imports_the_library_from_a_checkout(name: str, tmp_path: 
     code = ("import json, os, runpy, sys; sys.path.insert(0, os.path.dirname(sys.argv[1])); "
             "runpy.run_path(sys.argv[1], run_name='not_main'); "  # as `python agent.py`
             "print(json.dumps({m: sys.modules[m].__file__ for m in "
-            "('entry', 'planner', 'lookahead', 'parsing', 'priors', 'simhost.skills') "
+            "('entry', 'planner', 'lookahead', 'parsing', 'priors', 'simhost.client.skills') "
             "if m in sys.modules}))")
     out = subprocess.run([sys.executable, "-c", code, str(EXAMPLES / name / "agent.py")],
                          cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
     loaded = json.loads(out.stdout.splitlines()[-1])
     assert "entry" in loaded, loaded  # every one plays through the library's entry point
-    # ... and reads the instruction with simhost.skills' reader.
-    assert "simhost.skills" in loaded, loaded
-    skills = loaded.pop("simhost.skills")
-    assert Path(skills).parent == ROOT / "simhost" / "skills", skills
+    # ... and reads the instruction with simhost.client.skills' reader.
+    assert "simhost.client.skills" in loaded, loaded
+    skills = loaded.pop("simhost.client.skills")
+    assert Path(skills).parent == ROOT / "simhost" / "client" / "skills", skills
     assert all(Path(f).parent == LIBRARY for f in loaded.values()), loaded
 
 
@@ -181,8 +181,8 @@ def test_the_in_process_harness_scores_as_the_worker_does(runs: Path) -> None:
 def test_memoryfree_look_alike_tables_are_the_tracks() -> None:
     """The memory-free policy's look-alike tables are copies (its image cannot import the
     simulator): they must say what the track's detector does, for every object and tool."""
-    from simhost.track1 import CONFUSABLE, CONFUSABLE_COLOURS
-    from simhost.track1._catalogue import OBJECT_CATEGORIES, TOOL_CATEGORIES
+    from simhost.worlds.track1 import CONFUSABLE, CONFUSABLE_COLOURS
+    from simhost.worlds.track1._catalogue import OBJECT_CATEGORIES, TOOL_CATEGORIES
 
     agent = _load(EXAMPLES / "track1_memoryfree")
     items = (*OBJECT_CATEGORIES, *TOOL_CATEGORIES)

@@ -125,7 +125,7 @@ def test_a_real_episode_records_what_it_showed(split: str) -> None:
 def test_the_protocol_page_names_the_vocabulary_the_scores_use() -> None:
     """Generated from where the words live (issue 22, item 6, in part)."""
     from plugins.protocol_doc import DOC
-    from simhost.track1._actions import REASONS
+    from simhost.worlds.track1._actions import REASONS
 
     text = DOC.read_text()
     assert all(f"`{r}`" in text for r in REASONS)

@@ -19,7 +19,7 @@ from plugins import load_track
 from plugins.track1 import EXCEPTION_TYPES, EXECUTION, EXPLORATION, PLANNING, Track1Episode
 from plugins.track1._budgets import backup_places
 from plugins.track1._exceptions import route_doors
-from simhost.track1 import PRIMITIVES
+from simhost.worlds.track1 import PRIMITIVES
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from _track1_harness import run_agent  # noqa: E402

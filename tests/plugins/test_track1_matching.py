@@ -12,7 +12,7 @@ import pytest
 from plugins.track1._matching import UNMATCHED, match, matched, rename, rename_answer
 from plugins.track1._score import model_parts, unmatched_notes
 from schemas import Affordance, Connection, ContainerState, DoorState, ObjectEntry, Room, WorldModel
-from simhost.track1 import HouseEnv, HouseTruth
+from simhost.worlds.track1 import HouseEnv, HouseTruth
 
 SEED = 21001
 

@@ -12,7 +12,7 @@ from plugins import PluginError, load_track
 from plugins.track1 import EXCEPTION_TYPES, Track1Plan, Track1Scenario
 from plugins.track1._episode import parse_plan
 from plugins.track1._language import SUBSTITUTE_RULE
-from simhost.track1 import HouseSplit, generate_house, initial_ground_truth
+from simhost.worlds.track1 import HouseSplit, generate_house, initial_ground_truth
 
 
 def _spec(seed: int, split: str, **params: object) -> Track1Scenario:

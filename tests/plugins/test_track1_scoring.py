@@ -14,7 +14,7 @@ from plugins.track1 import GradedQuery, PlannedException, Query, Task, Track1Out
 from plugins.track1._queries import grade, score_answer, truth_of
 from schemas import EpisodeResult, EpisodeStats, LogRecord, ScoreCard, WorldModel
 from schemas._result import EpisodeStatus
-from simhost.track1 import HouseTruth
+from simhost.worlds.track1 import HouseTruth
 
 # A three-room house: 0 kitchen, 1 hallway, 2 storage; doors 1 (0-1), 2 (1-2), 3 (0-2).
 _ROOMS = [(0, "kitchen"), (1, "hallway"), (2, "storage")]

@@ -21,7 +21,7 @@ import pytest
 from plugins import load_track
 from plugins.track1 import EXPLORATION, Track1Episode
 from plugins.track1._track import Track1
-from simhost.track1 import PRIMITIVES, PerturbationError
+from simhost.worlds.track1 import PRIMITIVES, PerturbationError
 
 SEED = 20100
 
@@ -88,7 +88,7 @@ class _Served:
     def __init__(self, episode: Track1Episode, tmp: Path) -> None:
         from schemas import unix_endpoint
         from simhost import HostConfig, SimHost
-        from simhost.agent import RemoteEnv
+        from simhost.client import RemoteEnv
 
         track = load_track("track1")
         sock = tmp / "sock" / "zenoh.sock"
@@ -126,7 +126,7 @@ def _pick(agent: Any, pixel: tuple[int, int]) -> Any:
 
 
 def test_vision_shows_pixels_and_takes_pixels_through_the_host(served: _Served) -> None:
-    from simhost.agent import HostError
+    from simhost.client import HostError
 
     agent, ep = served.agent, served.episode
     obj, near, far = _poses()  # the test's eyes: the host's own segmentation

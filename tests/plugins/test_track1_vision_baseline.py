@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from simhost.track1 import HouseEnv, PerturbationError
+from simhost.worlds.track1 import HouseEnv, PerturbationError
 
 FOLDER = Path(__file__).resolve().parents[2] / "examples" / "track1_vision"
 sys.path.insert(0, str(FOLDER))

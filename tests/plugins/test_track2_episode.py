@@ -11,7 +11,7 @@ import pytest
 
 from plugins import PluginError, Scenario, load_track
 from plugins.track2 import Track2Episode
-from simhost.track2 import (
+from simhost.worlds.track2 import (
     FAMILIES,
     ScriptedExpert,
     instance_distance,
@@ -58,7 +58,7 @@ def test_families_balance_by_index_and_scenarios_are_deterministic() -> None:
 
 
 def test_hidden_instances_are_feasible_through_the_observation_channel() -> None:
-    from simhost.track2 import family_step_cap
+    from simhost.worlds.track2 import family_step_cap
 
     for i in range(5):
         s = TRACK.hidden(make(300 + i, "challenge", index=i))

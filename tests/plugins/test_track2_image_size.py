@@ -6,7 +6,7 @@ import pytest
 
 from plugins._errors import PluginError
 from plugins.track2._scenario import make_track2_scenario, split_params
-from simhost.track2 import OFFICIAL_IMAGE_SIZE
+from simhost.worlds.track2 import OFFICIAL_IMAGE_SIZE
 
 
 def test_split_image_size_parameter() -> None:

@@ -19,7 +19,7 @@ from orchestrator._episode.worker import EpisodeSpec, run_episode
 from orchestrator._runtimes.local import LocalProcessRuntime
 from plugins import load_track
 from schemas import EpisodeStatus, Limits
-from simhost.track2._raster import Canvas
+from simhost.worlds.track2._raster import Canvas
 
 TRACK = load_track("track2")
 

@@ -14,7 +14,7 @@ from plugins.track2._scoring import MODEL_WEIGHTS, OFFICIAL_ADAPT_S, close
 from schemas import EpisodeResult, EpisodeStats, NamedItem, Precondition, ScoreCard, TaskModel
 from schemas._files import StateVariable, SuccessCriterion
 from schemas._result import EpisodeStatus
-from simhost.track2 import TaskTruth, task_truth
+from simhost.worlds.track2 import TaskTruth, task_truth
 
 TRACK = load_track("track2")
 

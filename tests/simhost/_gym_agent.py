@@ -1,5 +1,5 @@
 """Policies written against the offline environments, and the agent that runs them unchanged
-through ``simhost.agent.GymEnv`` (``tests/simhost/test_gym_client.py``).
+through ``simhost.client.GymEnv`` (``tests/simhost/test_gym_client.py``).
 
 The policies take an observation dict and return an action exactly as
 ``gymnasium.make("eagc/House-v0")`` and ``gymnasium.make("eagc/Sanity-v0")`` do; they import
@@ -78,7 +78,7 @@ EXECUTE_STEPS = 12
 
 
 def _track1(trace: dict[str, Any]) -> None:
-    from simhost.agent import GymEnv, StageEnd, StageRule
+    from simhost.client import GymEnv, StageEnd, StageRule
 
     log: list[dict[str, Any]] = []
     rooms: dict[int, str] = {}
@@ -134,7 +134,7 @@ def _track1(trace: dict[str, Any]) -> None:
 
 
 def _sanity(trace: dict[str, Any]) -> None:
-    from simhost.agent import GymEnv, StageEnd, StageRule
+    from simhost.client import GymEnv, StageEnd, StageRule
 
     log: list[dict[str, Any]] = []
     target: list[list[float]] = []
@@ -179,7 +179,7 @@ def main(argv: list[str]) -> int:
         sys.modules["gymnasium"] = None  # type: ignore[assignment]  # as in the agent base
     trace: dict[str, Any] = {"obs": [], "actions": [], "stages": [], "rewards": [], "ends": []}
     (_track1 if track == "track1" else _sanity)(trace)
-    import simhost._gym_client as client
+    import simhost.client._gym_client as client
 
     arrays = {f"obs/{i}/{k}": v for i, o in enumerate(trace.pop("obs")) for k, v in o.items()}
     arrays.update({f"action/{i}/{k}": np.asarray(v) for i, a in enumerate(trace["actions"])

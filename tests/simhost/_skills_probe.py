@@ -10,8 +10,8 @@ import json
 import math
 import os
 
-from simhost.agent import OutputFiles, RemoteEnv
-from simhost.skills import EXPLORED, Skills
+from simhost.client import OutputFiles, RemoteEnv
+from simhost.client.skills import EXPLORED, Skills
 
 
 def main() -> None:

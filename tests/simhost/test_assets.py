@@ -13,10 +13,19 @@ import mujoco
 import numpy as np
 import pytest
 
-from simhost.assets import ASSET_DIR, FLOORS, SOURCES, TRACK1_LOOKS, TRACK2_LOOKS, WALLS, Part, fit
-from simhost.assets._meshgen import GENERATED, obj_text
-from simhost.assets.reproduce import decode_png, encode_png, read_sums, resample
-from simhost.track1._catalogue import (
+from simhost.worlds.assets import (
+    ASSET_DIR,
+    FLOORS,
+    SOURCES,
+    TRACK1_LOOKS,
+    TRACK2_LOOKS,
+    WALLS,
+    Part,
+    fit,
+)
+from simhost.worlds.assets._meshgen import GENERATED, obj_text
+from simhost.worlds.assets.reproduce import decode_png, encode_png, read_sums, resample
+from simhost.worlds.track1._catalogue import (
     CATEGORIES,
     DEFAULT_FURNITURE,
     DEFAULT_ITEMS,
@@ -24,7 +33,7 @@ from simhost.track1._catalogue import (
     ROOM_TYPES,
     ItemSpec,
 )
-from simhost.track1._layout import CARCASS
+from simhost.worlds.track1._layout import CARCASS
 
 VISUAL = 'contype="0" conaffinity="0" density="0" group="4"'
 """Visual only: no contact, no mass, a group Track 1's rays (groups 0-2) never see."""
@@ -154,7 +163,7 @@ def test_every_category_and_colour_has_a_look_that_renders(category: str, colour
     frame = _render(xml, tuple((lo + hi) / 2), 1.1 * float(np.max(hi - lo)))
     assert (frame.reshape(-1, 3).std(axis=0) > 5).any()
     if os.environ.get("EAGC_ASSET_FRAMES"):  # a folder: keep the frames to look at
-        from simhost._png import write_png
+        from simhost.host._png import write_png
 
         write_png(
             Path(os.environ["EAGC_ASSET_FRAMES"]) / f"{category}_{colour}.png",

@@ -1,4 +1,4 @@
-"""``simhost.agent.GymEnv``: a policy written against the offline gymnasium environment runs
+"""``simhost.client.GymEnv``: a policy written against the offline gymnasium environment runs
 unchanged against the real sim host.
 
 The policies and the agent are in ``_gym_agent.py``. The episodes run through the episode
@@ -25,8 +25,8 @@ from orchestrator._episode.worker import EpisodeSpec, run_episode
 from orchestrator._runtimes.local import LocalProcessRuntime
 from schemas import EpisodeStatus, Limits
 from schemas._protocol import FieldSpec, HelloReply, StageInfo
-from simhost._outputs import OutputFileError
-from simhost.agent import GymClientError, GymEnv, StageRule
+from simhost.client import GymClientError, GymEnv, StageRule
+from simhost.client._outputs import OutputFileError
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _gym_agent import EXECUTE_STEPS, EXPLORE_STEPS, ArenaPolicy, HousePolicy  # noqa: E402

@@ -42,11 +42,12 @@ def test_import_simhost_registers_every_track_without_mujoco(order):
     ))
     assert not report["mujoco"], "registering must not import MuJoCo"
     assert report["ids"] == IDS
-    tracks = {p.parent.name for p in (ROOT / "simhost").glob("*/_register.py")}
+    tracks = {p.parent.name for p in (ROOT / "simhost" / "worlds").glob("*/_register.py")}
     assert tracks >= {"sanity", "track1"}
     for track in tracks:  # every track that has a _register.py registered something
-        registered = [i for i in IDS if gym.spec(i).entry_point.startswith(f"simhost.{track}.")]
-        assert registered, f"simhost/{track}/_register.py registered no id"
+        registered = [i for i in IDS
+                      if gym.spec(i).entry_point.startswith(f"simhost.worlds.{track}.")]
+        assert registered, f"simhost/worlds/{track}/_register.py registered no id"
     assert {"eagc/Sanity-v0", "eagc/House-v0"} <= set(IDS)
 
 

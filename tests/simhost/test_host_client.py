@@ -54,7 +54,7 @@ def test_replies_echo_the_request_id(host_episode):
 def test_an_error_reply_to_a_resent_hello_does_not_put_the_client_out_of_step(host_episode):
     """A hello resent after the episode began gets a "stale" error; matched by count (as
     before request ids), that error would be taken for the reply to the next step."""
-    from simhost.agent import RemoteEnv
+    from simhost.client import RemoteEnv
 
     env = RemoteEnv(host_episode.endpoint, host_episode.episode, timeout_s=10.0)
     try:
@@ -78,7 +78,7 @@ def test_close_leaves_no_watcher_thread_inside_zenoh(host_episode, monkeypatch):
     by pthread_exit, whose unwinding through Rust frames aborts the agent's process ("FATAL:
     exception not rethrown", exit -6) after a good episode: close() waits for its watchers.
     Here the host watcher is slow to leave, as it is on a loaded machine."""
-    from simhost.agent import RemoteEnv
+    from simhost.client import RemoteEnv
 
     watch = RemoteEnv._watch_host
 
@@ -100,7 +100,7 @@ def test_close_leaves_no_watcher_thread_inside_zenoh(host_episode, monkeypatch):
 def test_the_default_reply_timeout_is_documented_and_finite():
     import inspect
 
-    from simhost.agent import DEFAULT_TIMEOUT_S, RemoteEnv
+    from simhost.client import DEFAULT_TIMEOUT_S, RemoteEnv
 
     default = inspect.signature(RemoteEnv).parameters["timeout_s"].default
     assert default == DEFAULT_TIMEOUT_S and 0 < default < float("inf")
@@ -109,7 +109,7 @@ def test_the_default_reply_timeout_is_documented_and_finite():
 
 def test_a_host_that_closes_ends_the_call_under_way(host_episode):
     """No reply timeout at all: only the host's liveliness token can end this call."""
-    from simhost.agent import HostLost, RemoteEnv
+    from simhost.client import HostLost, RemoteEnv
 
     episode = host_episode.host.episode
     entered = threading.Event()
@@ -142,7 +142,7 @@ def test_a_host_that_closes_ends_the_call_under_way(host_episode):
 
 
 def test_progress_shows_a_busy_serving_thread(host_episode):
-    from simhost.agent import RemoteEnv
+    from simhost.client import RemoteEnv
 
     host = host_episode.host
     episode = host.episode
@@ -229,7 +229,7 @@ _HOST = textwrap.dedent(
 _AGENT = textwrap.dedent(
     """
     import sys, time
-    from simhost.agent import RemoteEnv
+    from simhost.client import RemoteEnv
     env = RemoteEnv(sys.argv[1], sys.argv[2], timeout_s=None)  # no timeout: liveliness only
     env.hello(agent="orphan/1")
     env.reset()

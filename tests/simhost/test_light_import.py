@@ -49,7 +49,8 @@ def _heavy(modules: list[str], heavy: tuple[str, ...] = HEAVY) -> list[str]:
     return sorted(m for m in modules if m.split(".")[0] in heavy)
 
 
-_CLIENT = "import simhost, simhost.agent\nfrom simhost.agent import HostError, RemoteEnv, TimeStep"
+_CLIENT = ("import simhost, simhost.client\n"
+           "from simhost.client import HostError, RemoteEnv, TimeStep")
 
 
 @pytest.mark.parametrize("gymnasium", ["installed", "absent"])
@@ -58,11 +59,11 @@ def test_agent_client_imports_nothing_heavy(gymnasium):
     # register only once gymnasium is imported: the client imports neither it nor a track.
     block = "import sys\nsys.modules['gymnasium'] = None\n" if gymnasium == "absent" else ""
     modules = _imported_after(block + _CLIENT)
-    assert not _heavy(modules), "simhost.agent must stay light (team containers import it)"
-    assert not [m for m in modules if m.startswith(("simhost.track", "simhost.sanity"))]
+    assert not _heavy(modules), "simhost.client must stay light (team containers import it)"
+    assert not [m for m in modules if m.startswith(("simhost.worlds", "simhost.host"))]
 
 
-_GYM_CLIENT = _CLIENT + "\nfrom simhost.agent import GymEnv, StageEnd, StageRule"
+_GYM_CLIENT = _CLIENT + "\nfrom simhost.client import GymEnv, StageEnd, StageRule"
 
 
 @pytest.mark.parametrize("gymnasium", ["installed", "absent"])
@@ -74,7 +75,7 @@ def test_the_gymnasium_style_client_imports_gymnasium_only_when_installed(gymnas
     heavy = _heavy(modules)
     if gymnasium == "absent":
         assert not heavy
-        assert not [m for m in modules if m.startswith(("simhost.track", "simhost.sanity"))]
+        assert not [m for m in modules if m.startswith(("simhost.worlds", "simhost.host"))]
     else:
         assert {m.split(".")[0] for m in heavy} == {"gymnasium"}
 
@@ -88,8 +89,8 @@ _AGENT = textwrap.dedent(
     """
     import importlib.util, json, sys
     missing = [m for m in {heavy!r} if importlib.util.find_spec(m) is None]
-    import simhost.agent
-    from simhost.agent import RemoteEnv
+    import simhost.client
+    from simhost.client import RemoteEnv
 
     env = RemoteEnv(sys.argv[1], sys.argv[2], timeout_s=20)
     env.hello(agent="light/1")
@@ -99,7 +100,7 @@ _AGENT = textwrap.dedent(
         ts = env.end_stage()
     env.close()
     print(json.dumps({{"missing": missing, "modules": sorted(sys.modules),
-                      "agent_file": simhost.agent.__file__, "prefix": sys.prefix,
+                      "agent_file": simhost.client.__file__, "prefix": sys.prefix,
                       "end": ts.end_reason}}))
     """
 )

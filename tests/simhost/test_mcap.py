@@ -25,7 +25,7 @@ from mcap.reader import make_reader
 from orchestrator._episode.worker import EpisodeSpec, run_episode
 from orchestrator._runtimes.local import LocalProcessRuntime
 from schemas import EpisodeStatus
-from simhost._mcap import segmentation_colours
+from simhost.host._mcap import segmentation_colours
 
 AGENT = Path(__file__).resolve().parents[2] / "examples" / "sanity_agent" / "agent.py"
 W, H = 48, 32

@@ -7,7 +7,7 @@ import json
 import pytest
 
 from schemas import CONTAINER, WORLD_MODEL_VERSION, LogRecord, WorldModel, parse_jsonl
-from simhost.agent import OutputFileError, OutputFiles
+from simhost.client import OutputFileError, OutputFiles
 
 
 def test_model_is_written_atomically_under_its_name(tmp_path):

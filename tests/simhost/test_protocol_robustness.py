@@ -308,7 +308,7 @@ def test_agent_leaving_ends_the_episode_quickly(host_episode, agent):
 _KILLED_AGENT = textwrap.dedent(
     """
     import sys, time
-    from simhost.agent import RemoteEnv
+    from simhost.client import RemoteEnv
     env = RemoteEnv(sys.argv[1], sys.argv[2], timeout_s=10)
     env.hello(agent="doomed/1")
     env.reset()
@@ -370,7 +370,7 @@ def test_resent_hello_is_answered_again_and_the_client_skips_the_second_reply(ho
     """A hello is resent when its reply is slow; the host answers every copy with the same
     reply (echoing the copy's id), and RemoteEnv must not take a second one for the reply
     to reset: it matches replies by request id."""
-    from simhost.agent import RemoteEnv
+    from simhost.client import RemoteEnv
 
     env = RemoteEnv(host_episode.endpoint, host_episode.episode, timeout_s=10.0)
     try:
@@ -402,7 +402,7 @@ def test_stop_ends_a_served_episode_promptly(host_episode, agent):
 def test_a_timed_out_step_does_not_put_the_client_out_of_step(host_episode):
     """With timeout_s, a slow reply raises TimeoutError; when it comes later, the next call
     skips it instead of taking it for its own reply (which would shift every reply by one)."""
-    from simhost.agent import RemoteEnv
+    from simhost.client import RemoteEnv
 
     episode = host_episode.host.episode
     real_step = episode.step
@@ -441,7 +441,7 @@ def test_a_flooding_agent_cannot_hang_the_host_at_the_end(sim_host, connect):
     """An agent that floods requests without waiting fills the host's request channel; the
     clock's tick then waits for room, and serve() used to join the clock with nobody left
     to drain the channel: it never returned."""
-    from simhost._host import EpisodeRecorder
+    from simhost.host._host import EpisodeRecorder
 
     class SlowRecorder(EpisodeRecorder):  # each request costs the host 20 ms
         def event(self, t: float, name: str, data: Any) -> None:

@@ -1,4 +1,4 @@
-"""``simhost._records``: every record the MCAP recorder writes reads back as its model.
+"""``simhost.host._records``: every record the MCAP recorder writes reads back as its model.
 
 The recorder writes a small log by hand (no episode): each record kind comes back typed,
 events by their ``event`` (an unknown one as ``OtherEvent`` with its fields in the order
@@ -18,10 +18,10 @@ import pytest
 from mcap.writer import Writer
 
 from schemas import EndReason, ObservationReply
-from simhost._episode import Observation, Pose
-from simhost._mcap import McapRecorder
-from simhost._png import encode_png
-from simhost._records import (
+from simhost.host._episode import Observation, Pose
+from simhost.host._mcap import McapRecorder
+from simhost.host._png import encode_png
+from simhost.host._records import (
     AttemptEndEvent,
     CompressedImage,
     EpisodeEndEvent,

@@ -1,4 +1,4 @@
-"""The public Track 1 skills (``simhost.skills``, docs/skills.md): light enough for a team's
+"""The public Track 1 skills (``simhost.client.skills``, docs/skills.md): light enough for a team's
 container, built from the agent's own observations only, one copy shared with the Track 1
 baselines, and, through the real host (SimHost over Zenoh, the episode worker, a local
 process), a symbolic agent built only on them completes dev episodes while a skill's
@@ -42,16 +42,16 @@ def _modules_after(code: str) -> list[str]:
 
 def test_the_skills_import_nothing_heavy_nor_a_simulator() -> None:
     modules = _modules_after("import sys\nsys.modules['gymnasium'] = None\n"
-                             "import simhost.skills\nfrom simhost.skills import Skills")
+                             "import simhost.client.skills\n"
+                             "from simhost.client.skills import Skills")
     assert not [m for m in modules if m.split(".")[0] in HEAVY]
-    assert not [m for m in modules if m.startswith(("simhost.track", "simhost.sanity",
-                                                    "simhost._host", "simhost._episode"))]
+    assert not [m for m in modules if m.startswith(("simhost.worlds", "simhost.host"))]
 
 
 def test_the_skills_read_only_what_the_host_sends() -> None:
-    """Their imports: the standard library, numpy and the client (``simhost.agent`` and its
+    """Their imports: the standard library, numpy and the client (``simhost.client`` and its
     ``_remote``), nothing of a simulator, a track or the organizer's side."""
-    allowed = {"simhost.agent", "simhost._remote", "simhost._errors"}
+    allowed = {"simhost.client", "simhost.client._remote", "simhost._errors"}
     for path in sorted(SKILLS.glob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
             names = ([a.name for a in node.names] if isinstance(node, ast.Import)
@@ -59,7 +59,7 @@ def test_the_skills_read_only_what_the_host_sends() -> None:
             for name in names:
                 top = name.split(".")[0]
                 if top == "simhost":
-                    assert name in allowed or name.startswith("simhost.skills"), (path, name)
+                    assert name in allowed or name.startswith("simhost.client.skills"), (path, name)
                 else:
                     assert top in sys.stdlib_module_names | {"numpy", "__future__"}, (
                         path, name)
@@ -71,8 +71,8 @@ def test_the_client_wheel_and_the_agent_base_carry_the_skills(tmp_path: Path) ->
     wheel = build_wheel(ROOT, tmp_path)
     names = set(zipfile.ZipFile(wheel).namelist())
     for path in SKILLS.glob("*.py"):
-        assert f"simhost/skills/{path.name}" in names, path.name
-    code = ("import json, sys, simhost.skills\n"
+        assert f"simhost/client/skills/{path.name}" in names, path.name
+    code = ("import json, sys, simhost.client.skills\n"
             "print(json.dumps([m.__file__ for k, m in sorted(sys.modules.items())\n"
             "                  if k.startswith('simhost') and getattr(m, '__file__', None)]))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
@@ -80,12 +80,12 @@ def test_the_client_wheel_and_the_agent_base_carry_the_skills(tmp_path: Path) ->
     covered = [ROOT / p for p in CLIENT_SOURCES]
     for f in map(Path, json.loads(out.stdout.splitlines()[-1])):
         assert any(f == c or c in f.parents for c in covered), (
-            f"{f.relative_to(ROOT)} is imported by simhost.skills but not in CLIENT_SOURCES")
+            f"{f.relative_to(ROOT)} is imported by simhost.client.skills but not in CLIENT_SOURCES")
 
 
 def test_the_baselines_hold_no_copy_of_the_skills() -> None:
     """One copy: the map, the model, navigation and the instruction reader live in
-    simhost.skills; the Track 1 library and baselines import them from there."""
+    simhost.client.skills; the Track 1 library and baselines import them from there."""
     library = ROOT / "examples" / "track1_common"
     assert not {"mapping.py", "model.py", "skills.py"} & {p.name for p in library.iterdir()}
     for folder in ("track1_common", "track1_heuristic", "track1_lookahead",

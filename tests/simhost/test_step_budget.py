@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from simhost.agent import RemoteEnv
+from simhost.client import RemoteEnv
 
 
 def test_episode_step_budget_is_announced_and_enforced(sim_host):

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from simhost.track1 import HouseEnv, HouseInfo, make_action
-from simhost.track2 import BenchEnv, BenchInfo
+from simhost.worlds.track1 import HouseEnv, HouseInfo, make_action
+from simhost.worlds.track2 import BenchEnv, BenchInfo
 
 HOUSE_KEYS = {"action_result", "collided", "detections", "room", "held", "step",
               "sim_warnings"}

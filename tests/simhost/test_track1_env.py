@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from simhost.track1 import (
+from simhost.worlds.track1 import (
     ENV_ID,
     PRIMITIVES,
     REASONS,
@@ -451,11 +451,11 @@ def test_observation_matches_info(env: HouseEnv) -> None:
 
 def test_import_is_light_and_registers() -> None:
     code = (
-        "import sys, simhost.track1, gymnasium as gym\n"
+        "import sys, simhost.worlds.track1, gymnasium as gym\n"
         "assert 'mujoco' not in sys.modules, 'mujoco imported eagerly'\n"
         "ids = {'eagc/HouseDev-v0', 'eagc/House-v0', 'eagc/HouseChallenge-v0'}\n"
         "assert ids <= set(gym.registry)\n"
-        "from simhost.track1 import HouseEnv\n"
+        "from simhost.worlds.track1 import HouseEnv\n"
         "assert 'mujoco' in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, cwd=_repo_root())

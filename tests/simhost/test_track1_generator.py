@@ -8,7 +8,7 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from simhost.track1 import (
+from simhost.worlds.track1 import (
     AFFORDANCES,
     MAX_IDS,
     ROOM_TYPES,
@@ -21,7 +21,7 @@ from simhost.track1 import (
     is_two_edge_connected,
     shortest_room_path,
 )
-from simhost.track1._graph import has_cycle, reachable
+from simhost.worlds.track1._graph import has_cycle, reachable
 
 STANDARD = [generate_house(seed) for seed in range(200)]
 CHALLENGE = [generate_house(seed, params=HouseParams.challenge()) for seed in range(100)]

@@ -14,10 +14,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from simhost.track1 import HouseEnv, generate_house, house_split, make_action
-from simhost.track1._dress import VISUAL_GROUP
-from simhost.track1._mjcf import build_mjcf
-from simhost.track1._sim import _RAY_GROUPS, _SCAN_GROUPS, HouseSim
+from simhost.worlds.track1 import HouseEnv, generate_house, house_split, make_action
+from simhost.worlds.track1._dress import VISUAL_GROUP
+from simhost.worlds.track1._mjcf import build_mjcf
+from simhost.worlds.track1._sim import _RAY_GROUPS, _SCAN_GROUPS, HouseSim
 
 SEED = 20017
 _TWIN = re.compile(r'<geom name="(?:\w+_v\d*|wallvis_\d+|lintelvis_\d+)"[^>]*/>')

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from simhost.track1 import (
+from simhost.worlds.track1 import (
     CONFUSABLE,
     CONFUSABLE_COLOURS,
     ENV_IDS,

@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from simhost.track1 import (
+from simhost.worlds.track1 import (
     Furniture,
     HouseEnv,
     HouseParams,

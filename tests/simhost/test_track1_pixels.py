@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simhost.track1 import (
+from simhost.worlds.track1 import (
     REASONS,
     HouseEnv,
     house_split,

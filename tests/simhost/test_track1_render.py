@@ -12,7 +12,7 @@ import zlib
 
 import numpy as np
 
-from simhost.track1 import HouseEnv, generate_house, make_action, render_topdown
+from simhost.worlds.track1 import HouseEnv, generate_house, make_action, render_topdown
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -73,7 +73,7 @@ def test_topdown_of_an_env_shows_states_and_trajectory(tmp_path: pathlib.Path) -
 _RGBD = """
 import json, os, sys
 import numpy as np
-from simhost.track1 import HouseEnv, make_action
+from simhost.worlds.track1 import HouseEnv, make_action
 assert os.environ["MUJOCO_GL"] == "egl" and "DISPLAY" not in os.environ
 env = HouseEnv(render_rgbd=True, image_size=(96, 72))
 obs, info = env.reset(seed=3)

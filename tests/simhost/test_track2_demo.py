@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from schemas import DemoManifest
-from simhost.track2 import (
+from simhost.worlds.track2 import (
     FAMILIES,
     BenchEnv,
     DemoPacketError,
@@ -23,8 +23,8 @@ from simhost.track2 import (
     task_truth,
     write_demo_packet,
 )
-from simhost.track2._demo import coarse_stages
-from simhost.track2._raster import decode_png
+from simhost.worlds.track2._demo import coarse_stages
+from simhost.worlds.track2._raster import decode_png
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +84,7 @@ def test_round_trip(family: str, split: str, tmp_path: Path) -> None:
 def test_official_demo_shows_the_result_at_rest(split: str, tmp_path: Path) -> None:
     """Without a magnitude in the annotation, the official packet goes on after the goal: the
     hand rises, so the released parts are seen past it at rest; dev's packet ends on it."""
-    from simhost.track2._demo import DRAW_BACK_Z, GOAL_EVENTS, POST_STEPS
+    from simhost.worlds.track2._demo import DRAW_BACK_Z, GOAL_EVENTS, POST_STEPS
 
     params = sample_instance("rotation", 30)
     man = write_demo_packet(tmp_path / "p", params, seed=0, config=split_config(split).bench)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from simhost.track2 import (
+from simhost.worlds.track2 import (
     FAMILIES,
     SPLITS,
     BenchEnv,
@@ -23,8 +23,8 @@ from simhost.track2 import (
     register_envs,
     sample_instance,
 )
-from simhost.track2._bench import yaw_of
-from simhost.track2._observe import canonical_yaw
+from simhost.worlds.track2._bench import yaw_of
+from simhost.worlds.track2._observe import canonical_yaw
 
 
 def _run(env: BenchEnv, actions: np.ndarray) -> list[str]:
@@ -156,7 +156,7 @@ def test_rgbd_observation() -> None:
 
 
 def test_rgbd_only_with_segmentation() -> None:
-    from simhost.track2 import split_config
+    from simhost.worlds.track2 import split_config
 
     bench = split_config("standard").bench
     cfg = bench.model_copy(update={"observation": bench.observation.model_copy(

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simhost.track2 import (
+from simhost.worlds.track2 import (
     FAMILIES,
     BenchEnv,
     InstanceParams,

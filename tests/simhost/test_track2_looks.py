@@ -7,8 +7,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from simhost.track2 import FAMILIES, OFFICIAL_IMAGE_SIZE, BenchEnv
-from simhost.track2._bench import HIDDEN_GROUP, RAY_GROUPS, VISUAL_GROUP
+from simhost.worlds.track2 import FAMILIES, OFFICIAL_IMAGE_SIZE, BenchEnv
+from simhost.worlds.track2._bench import HIDDEN_GROUP, RAY_GROUPS, VISUAL_GROUP
 
 MESHES = {"insertion": "peg_look", "rotation": None, "opening": None, "assembly": None,
           "tool_use": None}

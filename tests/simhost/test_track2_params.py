@@ -9,7 +9,7 @@ import sys
 import pytest
 from pydantic import ValidationError
 
-from simhost.track2 import (
+from simhost.worlds.track2 import (
     FAMILIES,
     PARAM_TABLES,
     InstanceParams,
@@ -172,7 +172,7 @@ def test_truth_states_goals_relative_to_the_start_and_the_splits_tolerance() -> 
 
 def test_light_import_has_no_mujoco() -> None:
     code = (
-        "import sys, simhost.track2 as t\n"
+        "import sys, simhost.worlds.track2 as t\n"
         "t.task_truth(t.sample_instance('assembly', 1))\n"
         "t.read_demo_packet, t.render_attempt_vs_demo\n"
         "assert 'mujoco' not in sys.modules and 'gymnasium' not in sys.modules, sys.modules\n"

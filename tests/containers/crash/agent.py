@@ -2,7 +2,7 @@
 
 import sys
 
-from simhost.agent import RemoteEnv
+from simhost.client import RemoteEnv
 
 env = RemoteEnv()
 env.hello(agent="crash")

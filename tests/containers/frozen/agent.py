@@ -2,7 +2,7 @@
 
 import time
 
-from simhost.agent import RemoteEnv
+from simhost.client import RemoteEnv
 
 env = RemoteEnv()
 env.hello(agent="frozen")

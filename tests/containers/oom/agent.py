@@ -1,6 +1,6 @@
 """Says hello, then allocates far more memory than its limit."""
 
-from simhost.agent import RemoteEnv
+from simhost.client import RemoteEnv
 
 env = RemoteEnv()
 env.hello(agent="oom")

@@ -6,7 +6,7 @@ episodes of a chosen length that cost almost no CPU.
 
 import time
 
-from simhost.agent import RemoteEnv
+from simhost.client import RemoteEnv
 
 STEP_S = 0.1
 

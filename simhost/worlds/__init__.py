@@ -1,0 +1,2 @@
+"""The tracks' simulators (``sanity``, ``track1``, ``track2``), each a gymnasium environment
+and a ``TrackEpisode`` for the sim host, and the assets their official splits show."""

@@ -2,7 +2,8 @@
 
 Public API: ``run_episode``, ``EpisodeSpec``, ``DockerRuntime``, ``LocalProcessRuntime``,
 ``AgentRuntime``, ``AgentLaunch``, ``AgentHandle``, ``collect``; errors derive from
-``OrchestratorError``. Names load on first use.
+``OrchestratorError``; ``__version__`` is eagc's (``schemas.__version__``, from the installed
+distribution). Names load on first use.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ _EXPORTS = {
     "UsageError": "orchestrator._errors",
     "collect": "orchestrator._episode.collect",
     "build_all": "orchestrator._images.build",
+    "__version__": "schemas",
 }
 
 __all__ = [

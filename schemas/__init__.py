@@ -2,7 +2,11 @@
 
 Light on purpose: imports only pydantic, so that a team's container can use it.
 JSON Schema files generated from these models live in ``schemas/json/`` (``python -m schemas``
-regenerates them; a test fails on drift).
+regenerates them; a test fails on drift): ``JSON_DIR``, and ``TARGETS`` (file stem → model).
+Besides the models, what other packages use: reading files with every problem at its path
+(``parse_json``, ``FileProblems``, ``Problem``, ``model_at``, ``ignored_note``,
+``reason_lines``), ``describe`` (a ``ValidationError`` as one line per field), and
+``__version__`` (the distribution's; ``CHANGELOG.md`` says what changed for teams).
 """
 
 from schemas._campaign import CampaignSpec, Limits, Split, Submission
@@ -17,7 +21,7 @@ from schemas._disclosure import (
     PretrainedModel,
     ResourceDisclosure,
 )
-from schemas._errors import EagcError, SchemaError
+from schemas._errors import EagcError, SchemaError, describe
 from schemas._events import (
     CampaignEvent,
     Committed,
@@ -47,8 +51,21 @@ from schemas._files import (
     TaskModel,
     WorldModel,
 )
-from schemas._io import load_json, parse_episode_log, parse_json, parse_jsonl
+from schemas._generate import JSON_DIR, TARGETS
+from schemas._io import (
+    IGNORED,
+    FileProblems,
+    Problem,
+    ignored_note,
+    load_json,
+    model_at,
+    parse_episode_log,
+    parse_json,
+    parse_jsonl,
+    reason_lines,
+)
 from schemas._protocol import (
+    ERROR_CODES,
     PROTOCOL_VERSION,
     ActionResult,
     Answer,
@@ -76,12 +93,17 @@ from schemas._result import (
     FileCheck,
     ScoreCard,
 )
+from schemas._version import __version__
 
 __all__ = [
     "CONTAINER",
     "DEMO_VERSION",
     "DISCLOSURE_VERSION",
+    "ERROR_CODES",
+    "IGNORED",
+    "JSON_DIR",
     "PROTOCOL_VERSION",
+    "TARGETS",
     "TASK_MODEL_VERSION",
     "WORLD_MODEL_VERSION",
     "ActionResult",
@@ -112,6 +134,7 @@ __all__ = [
     "FailureReport",
     "FieldSpec",
     "FileCheck",
+    "FileProblems",
     "Finished",
     "FrameSpec",
     "Hello",
@@ -126,6 +149,7 @@ __all__ = [
     "OpenSourceStatement",
     "Precondition",
     "PretrainedModel",
+    "Problem",
     "Reply",
     "Request",
     "Reset",
@@ -146,11 +170,16 @@ __all__ = [
     "TaskModel",
     "TensorMeta",
     "WorldModel",
+    "__version__",
+    "describe",
     "event_line",
+    "ignored_note",
     "load_json",
+    "model_at",
     "parse_episode_log",
     "parse_event",
     "parse_json",
     "parse_jsonl",
+    "reason_lines",
     "unix_endpoint",
 ]

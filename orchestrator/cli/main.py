@@ -50,6 +50,26 @@ app.command("status", help="Alias of `eagc campaign status`.")(status_cmd)
 app.command("audit", epilog=AUDIT_CODES)(audit_cmd)
 app.command("check-files", epilog=CHECK_FILES_CODES)(check_files_cmd)
 app.command("report", epilog=REPORT_CODES)(report_cmd)
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        import orchestrator
+
+        print(f"eagc {orchestrator.__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _options(
+    version: Annotated[bool, typer.Option(
+        "--version", callback=_print_version, is_eager=True,
+        help="Print eagc's version (what changed for teams: CHANGELOG.md) and exit.")] = False,
+) -> None:
+    # No docstring: the app's help stays the one given to typer.Typer above.
+    pass
+
+
 # Width: $COLUMNS when set, else the terminal's, else 80 (rich decides at each print).
 console = Console()
 #: Progress and warnings: stderr, so that --json output stays clean.

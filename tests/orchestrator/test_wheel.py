@@ -30,7 +30,8 @@ def test_the_wheel_is_reproducible_and_its_record_is_true(tmp_path: Path) -> Non
     two = build_wheel(REPO, tmp_path / "b").read_bytes()
     assert one == two
     z = zipfile.ZipFile(io.BytesIO(one))
-    info = "eagc-0.1.0.dist-info"
+    version = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["version"]
+    info = f"eagc-{version}.dist-info"
     rows = list(csv.reader(io.StringIO(z.read(f"{info}/RECORD").decode())))
     assert {r[0] for r in rows} == set(z.namelist())
     for path, digest, size in rows:

@@ -7,7 +7,7 @@ exits 2, like any other usage error.
 
 from __future__ import annotations
 
-from schemas._errors import EagcError
+from schemas import EagcError
 
 
 class OrchestratorError(EagcError):

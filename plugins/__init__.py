@@ -2,10 +2,12 @@
 
 Public API: ``TrackPlugin`` (generic over its scenario and outcome models), ``Scenario``,
 ``ScoringInput``, ``EpisodeOutcome`` (the base of every track's outcome), ``FileRule``,
-``load_track``, ``available_tracks``, ``PluginError``. The conformance suite is
-``plugins.conformance``.
+``load_track``, ``available_tracks``, ``PluginError``; what every track's audit shares
+(``Finding``, ``Severity``, ``HostSteps``, ``log_step_findings``, ``STEP_SLACK``). The
+conformance suite is ``plugins.conformance``.
 """
 
+from plugins._audit import STEP_SLACK, Finding, HostSteps, Severity, log_step_findings
 from plugins._base import (
     EPISODE_LOG,
     Column,
@@ -24,14 +26,18 @@ from simhost.host._episode import EpisodeOutcome, Observation, StageSpec, StepOu
 __all__ = [
     "EPISODE_LOG",
     "GROUP",
+    "STEP_SLACK",
     "Column",
     "EpisodeOutcome",
     "FileRule",
+    "Finding",
+    "HostSteps",
     "Observation",
     "ParsedFile",
     "PluginError",
     "Scenario",
     "ScoringInput",
+    "Severity",
     "StageSpec",
     "StepOutcome",
     "TrackEpisode",
@@ -40,5 +46,6 @@ __all__ = [
     "granted_budgets",
     "score_episode",
     "load_track",
+    "log_step_findings",
     "validate_plugin",
 ]

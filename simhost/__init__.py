@@ -10,8 +10,10 @@ Three audiences, three folders:
 - ``simhost.worlds``: the tracks' simulators (``sanity``, ``track1``, ``track2``) and their
   assets.
 
-Beside them at the top: the wire codec (``_wire``) and the transport (``_transport``) that
-host and client share, and the error root (``SimHostError``). Nothing heavy is imported
+Beside them at the top: the wire codec (``_wire``: ``encode``, ``decode_request``,
+``decode_reply``, ``WireError``) and the transport (``_transport``) that host and client
+share, and the error root (``SimHostError``). ``__all__`` is what other packages may import
+(``tests/test_public_surface.py``). Nothing heavy is imported
 here; names below load their module on first use. The paths that moved to these folders
 (``simhost.agent``, ``simhost.skills``, ``simhost.track1`` …) still import, with a
 ``DeprecationWarning`` naming the new path (``CHANGELOG.md``).
@@ -45,6 +47,10 @@ _EXPORTS = {
     "HostError": "simhost.client",
     "HostLost": "simhost.client",
     "SimHostError": "simhost._errors",
+    "WireError": "simhost._wire",
+    "encode": "simhost._wire",
+    "decode_reply": "simhost._wire",
+    "decode_request": "simhost._wire",
     "OutputFiles": "simhost.client._outputs",
     "OutputFileError": "simhost.client._outputs",
     "Pose": "simhost.host._episode",
@@ -84,7 +90,11 @@ __all__ = [
     "StepOutcome",
     "TimeStep",
     "TrackEpisode",
+    "WireError",
     "check_action",
+    "decode_reply",
+    "decode_request",
+    "encode",
     "encode_png",
     "env_ids",
     "write_png",
@@ -92,6 +102,7 @@ __all__ = [
 
 if TYPE_CHECKING:
     from simhost._errors import SimHostError
+    from simhost._wire import WireError, decode_reply, decode_request, encode
     from simhost.client import HostError, HostLost, RemoteEnv, TimeStep
     from simhost.client._outputs import OutputFileError, OutputFiles
     from simhost.host._actions import ActionError, check_action

@@ -5,7 +5,7 @@ Light (pydantic only, through ``schemas``): the agent client's errors derive fro
 
 from __future__ import annotations
 
-from schemas._errors import EagcError
+from schemas import EagcError
 
 
 class SimHostError(EagcError):

@@ -29,7 +29,7 @@ import numpy as np
 import pydantic_core
 from pydantic import BaseModel, TypeAdapter, ValidationError
 
-from schemas._protocol import Reply, Request
+from schemas import Reply, Request
 from simhost._errors import SimHostError
 
 MAGIC = b"EGC1"

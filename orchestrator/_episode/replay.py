@@ -17,13 +17,12 @@ from typing import Any
 
 from orchestrator._errors import OrchestratorError
 from plugins import Scenario, load_track
-from simhost.host._actions import check_action
-from simhost.host._episode import Observation
-from simhost.host._records import (
+from simhost.host import (
     AnswerRequest,
     EndStageRequest,
     FullState,
     McapRecordError,
+    Observation,
     Record,
     ResetRequest,
     ScenarioRecord,
@@ -31,6 +30,7 @@ from simhost.host._records import (
     StageStartEvent,
     StateHash,
     StepRequest,
+    check_action,
     read_records,
 )
 

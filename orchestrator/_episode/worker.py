@@ -63,8 +63,7 @@ from schemas import (
     Limits,
     unix_endpoint,
 )
-from simhost.host._host import HostConfig, HostOutcome, SimHost
-from simhost.host._mcap import McapRecorder
+from simhost.host import HostConfig, HostOutcome, McapRecorder, SimHost
 
 log = logging.getLogger("eagc.worker")
 

@@ -15,8 +15,7 @@ from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
-from schemas import EpisodeResult
-from schemas._io import IGNORED, reason_lines
+from schemas import IGNORED, EpisodeResult, reason_lines
 
 
 def _mib(n: int | None) -> str:

@@ -40,8 +40,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ValidationError
 
-from schemas._files import LogRecord
-from schemas._protocol import FieldSpec, HelloReply, HostMessage
+from schemas import FieldSpec, HelloReply, HostMessage, LogRecord
 from simhost._errors import SimHostError
 from simhost.client._outputs import LOG_FILE, OutputFileError, OutputFiles
 from simhost.client._plain_spaces import PlainBox, PlainDict, PlainDiscrete

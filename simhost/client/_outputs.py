@@ -21,8 +21,7 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from schemas._contract import CONTAINER
-from schemas._files import LogRecord, TaskModel, WorldModel
+from schemas import CONTAINER, LogRecord, TaskModel, WorldModel
 from simhost._errors import SimHostError
 
 __all__ = ["LOG_FILE", "MODEL_FILES", "OutputFiles", "OutputFileError"]

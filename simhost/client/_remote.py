@@ -17,8 +17,8 @@ from typing import Any, NamedTuple
 import numpy as np
 import zenoh
 
-from schemas._contract import CONTAINER
-from schemas._protocol import (
+from schemas import (
+    CONTAINER,
     PROTOCOL_VERSION,
     ActionResult,
     Answer,

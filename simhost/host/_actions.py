@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from schemas._protocol import FieldSpec
+from schemas import FieldSpec
 from simhost._errors import SimHostError
 
 

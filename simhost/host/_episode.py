@@ -20,7 +20,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas._protocol import ActionResult, EndReason, FieldSpec, HostMessage
+from schemas import ActionResult, EndReason, FieldSpec, HostMessage
 
 StageEnd = Literal["budget", "steps", "agent", "episode_over", "stopped"]
 

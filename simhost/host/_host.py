@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from schemas._protocol import (
+from schemas import (
     PROTOCOL_VERSION,
     ActionResult,
     Answer,

@@ -57,8 +57,15 @@ from pydantic import (
     model_validator,
 )
 
-from schemas import EndReason, EpisodeResult, ErrorReply, HelloReply, ObservationReply, Reply
-from schemas._errors import describe
+from schemas import (
+    EndReason,
+    EpisodeResult,
+    ErrorReply,
+    HelloReply,
+    ObservationReply,
+    Reply,
+    describe,
+)
 from simhost._errors import SimHostError
 from simhost.host._episode import StageEnd
 

@@ -21,7 +21,9 @@ user may touch:
 - demonstration packets (``eagc-demo/v2``): :func:`write_demo_packet`,
   :func:`read_demo_packet`, :class:`DemoPacket` (the manifest model is
   ``schemas.DemoManifest``);
-- a picture: :func:`render_attempt_vs_demo`;
+- a picture: :func:`render_attempt_vs_demo`, and what a track's own pictures draw with:
+  :class:`Canvas`, :func:`decode_png`, :func:`resize_rgb`, the colours ``DEMO_RGB``,
+  ``ATTEMPT_RGB``, ``INK``, ``PAPER``; :func:`quat_z` (a yaw as a quaternion);
 - errors: :class:`Track2Error` and its subclasses.
 
 Configs, instance parameters, the truth, the packet reader and the picture import without
@@ -73,8 +75,10 @@ if TYPE_CHECKING:
     from ._demo import write_demo_packet
     from ._env import BenchEnv
     from ._expert import ScriptedExpert, expert_policy
+    from ._observe import quat_z
     from ._packet import DemoPacket, read_demo_packet
-    from ._picture import render_attempt_vs_demo
+    from ._picture import ATTEMPT_RGB, DEMO_RGB, INK, PAPER, render_attempt_vs_demo, resize_rgb
+    from ._raster import Canvas, decode_png
 
 _LAZY = {
     "BenchEnv": "._env",
@@ -84,18 +88,31 @@ _LAZY = {
     "read_demo_packet": "._packet",
     "write_demo_packet": "._demo",
     "render_attempt_vs_demo": "._picture",
+    "resize_rgb": "._picture",
+    "ATTEMPT_RGB": "._picture",
+    "DEMO_RGB": "._picture",
+    "INK": "._picture",
+    "PAPER": "._picture",
+    "Canvas": "._raster",
+    "decode_png": "._raster",
+    "quat_z": "._observe",
 }
 
 __all__ = [
+    "ATTEMPT_RGB",
+    "DEMO_RGB",
     "ENV_IDS",
+    "INK",
     "FAMILIES",
     "PARAM_TABLES",
+    "PAPER",
     "PART_FIELDS",
     "OFFICIAL_IMAGE_SIZE",
     "SPLITS",
     "BenchConfig",
     "BenchEnv",
     "BenchInfo",
+    "Canvas",
     "DemoPacket",
     "DemoPacketError",
     "InstanceParams",
@@ -113,14 +130,17 @@ __all__ = [
     "TruthCriterion",
     "TruthVariable",
     "VariationConfig",
+    "decode_png",
     "default_source",
     "env_id",
     "expert_policy",
     "family_step_cap",
     "instance_distance",
+    "quat_z",
     "read_demo_packet",
     "register_envs",
     "render_attempt_vs_demo",
+    "resize_rgb",
     "sample_instance",
     "split_config",
     "task_truth",

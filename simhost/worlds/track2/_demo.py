@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from schemas._demo import Annotation, ArraySpec, DemoManifest, FrameSpec, KeyStage
+from schemas import Annotation, ArraySpec, DemoManifest, FrameSpec, KeyStage
 from simhost.host._png import encode_png
 
 from ._bench import (

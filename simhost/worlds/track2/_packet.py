@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from schemas._demo import DEMO_VERSION, DemoManifest
+from schemas import DEMO_VERSION, DemoManifest
 
 from ._errors import DemoPacketError
 

@@ -25,11 +25,11 @@ the dev split); with depth frames, ``frame_depth (F, H, W) float32`` (metres) fo
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Final, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-DEMO_VERSION = "eagc-demo/v2"
+DEMO_VERSION: Final = "eagc-demo/v2"
 
 
 class _Frozen(BaseModel):

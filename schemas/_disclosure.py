@@ -10,11 +10,11 @@ report and ``eagc audit`` show it. Nothing here is graded: the file is checked s
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any, Final, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-DISCLOSURE_VERSION = "eagc-disclosure/v1"
+DISCLOSURE_VERSION: Final = "eagc-disclosure/v1"
 
 
 def _strict(*examples: dict[str, Any]) -> ConfigDict:

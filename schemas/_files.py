@@ -16,12 +16,12 @@ JSON Schemas are the ones the tracks' scores read.
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any, Final, Literal
 
 from pydantic import AliasChoices, BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
-WORLD_MODEL_VERSION = "eagc-world-model/v1"
-TASK_MODEL_VERSION = "eagc-task-model/v1"
+WORLD_MODEL_VERSION: Final = "eagc-world-model/v1"
+TASK_MODEL_VERSION: Final = "eagc-task-model/v1"
 
 Id = int | str
 

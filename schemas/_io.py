@@ -114,7 +114,8 @@ def model_at(model: type[BaseModel], loc: Sequence[Any]) -> tuple[type[BaseModel
                                                                    tuple[Any, ...]]:
     """The innermost model along ``loc`` and the path to it (for an example and a
     schema reference of what failed)."""
-    here, path = model, ()
+    here: type[BaseModel] = model
+    path: tuple[Any, ...] = ()
     for i, key in enumerate(loc):
         if isinstance(key, int):
             continue
@@ -170,8 +171,8 @@ def _without(doc: Any, paths: Iterable[tuple[Any, ...]]) -> Any:
     return doc
 
 
-def _lenient(doc: Any, model: type[BaseModel], err: ValidationError
-             ) -> tuple[BaseModel, list[Problem]] | None:
+def _lenient(doc: Any, model: type[M], err: ValidationError
+             ) -> tuple[M, list[Problem]] | None:
     """``doc`` validated without the fields nothing grades whose values failed, and the
     problems left out; None when a graded field failed too."""
     dropped: list[tuple[Any, ...]] = []
@@ -350,9 +351,9 @@ class FileProblems(SchemaError):
 # -------------------------------------------------------------------------- parsing
 def _record(obj: BaseModel, ignored: Sequence[str], unreadable: Sequence[str] = ()) -> None:
     if ignored and hasattr(obj, "_ignored"):
-        obj._ignored = tuple(ignored)  # type: ignore[attr-defined]
+        obj._ignored = tuple(ignored)
     if unreadable and hasattr(obj, "_unreadable"):
-        obj._unreadable = tuple(unreadable)  # type: ignore[attr-defined]
+        obj._unreadable = tuple(unreadable)
 
 
 def _validate(doc: Any, model: type[M], prefix: tuple[Any, ...] = ()
@@ -367,7 +368,7 @@ def _validate(doc: Any, model: type[M], prefix: tuple[Any, ...] = ()
         kept = _lenient(doc, model, e)
         if kept is None:
             return None, problems_of(e, doc, model, prefix)
-        obj, left = kept  # type: ignore[assignment]
+        obj, left = kept
         _record(obj, unknown, [f"{lead}{line}" for line in problem_lines(left)])
         return obj, []
     _record(obj, unknown)
@@ -442,6 +443,8 @@ def load_json(path: Path | str, model: type[M]) -> M:
 
 
 def parse_jsonl(
+    # A TypeVar-typed parameter cannot have a default in mypy (python/mypy#3737): LogRecord
+    # is an M for every call that leaves ``model`` out.
     data: bytes | str, model: type[M] = LogRecord, *, source: str  # type: ignore[assignment]
 ) -> list[M]:
     """Parse JSON lines; every bad line is reported by its number, none is silently dropped."""

@@ -50,6 +50,7 @@ try:
     import gymnasium
     from gymnasium import spaces as gym_spaces
 except ImportError:  # the light install: plain space descriptions
+    # None says "not installed"; every use checks it first.
     gymnasium = None  # type: ignore[assignment]
     gym_spaces = None  # type: ignore[assignment]
 
@@ -137,6 +138,8 @@ def _dtype(spec: FieldSpec, track: str) -> np.dtype[Any] | None:
 
 def _box(spec: FieldSpec, dtype: np.dtype[Any]) -> Any:
     shape = tuple(spec.shape)
+    low: float
+    high: float
     if dtype.kind == "b":
         low, high = 0, 1
     elif dtype.kind in "iu":
@@ -215,7 +218,7 @@ class _Base:
 _Env: type = _Base if gymnasium is None else gymnasium.Env
 
 
-class GymEnv(_Env):  # type: ignore[misc, valid-type]
+class GymEnv(_Env):
     """The episode as a ``gymnasium.Env``: ``reset()``, ``step(action)``, ``close()``.
 
     Says hello at construction (the spaces come from the reply), so the spaces are there
@@ -369,8 +372,8 @@ class GymEnv(_Env):  # type: ignore[misc, valid-type]
         self._begin_call()
         while not ts.episode_over:
             self._advance(self._end_stage_now("finish"))
+            assert self._ts is not None
             ts = self._ts
-            assert ts is not None
         return self._obs, self._info
 
     def answer(self, answers: Mapping[str, Any]) -> TimeStep:

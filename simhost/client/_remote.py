@@ -163,7 +163,9 @@ class RemoteEnv:
         # lost. It is still resent until a reply comes; the host answers a resent hello
         # with the same reply, and the client skips the duplicates by their id.
         deadline = time.monotonic() + _MATCH_WAIT_S
-        while not self._pub.matching_status.matching and time.monotonic() < deadline:
+        # zenoh's stub types matching_status as bool; zenoh 1.x returns a MatchingStatus.
+        while (not self._pub.matching_status.matching  # type: ignore[attr-defined]
+               and time.monotonic() < deadline):
             if self._host_gone:
                 raise HostLost()
             time.sleep(0.001)

@@ -214,7 +214,8 @@ class WorldModel:
         """Things that fit a description (category, colour, room type, what it is on)."""
         out = []
         for t in self.find(ref["category"], ref.get("colour")):
-            if ref.get("room") and self.rooms.get(self.room_of(t)) != ref["room"]:
+            room = self.room_of(t)
+            if ref.get("room") and (room is None or self.rooms.get(room) != ref["room"]):
                 continue
             if ref.get("on"):
                 base = self.on_what(t)

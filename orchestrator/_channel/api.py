@@ -1,0 +1,187 @@
+"""The channel's HTTP API (FastAPI on uvicorn).
+
+Teams authenticate with ``Authorization: Bearer <token>``; the runner with its own token
+(``<data>/runner.token``). The registry sends Docker's token requests to ``/auth/token``
+with HTTP Basic credentials: a team's name and token (what ``eagc submit`` gives the
+engine), or ``runner`` and the runner's token. Every refusal is one line in ``detail``
+saying what was wrong and what to do; a submission of another team is "not found", exactly
+as one that does not exist.
+
+    GET  /api/v1/whoami                     the team, the open phase, the registry
+    POST /api/v1/submissions                submit an image of the team's repository
+    GET  /api/v1/submissions[/{id}]         the team's submissions
+    GET  /api/v1/board                      the open phase's board (teams' latest scored)
+    POST /api/v1/runner/claim               runner: take a pre-flight or a run
+    GET  /api/v1/runner/campaign/{phase}    runner: the campaign a phase's submissions play
+    GET  /api/v1/runner/preflight/{phase}   runner: the phase's pre-flight settings
+    POST /api/v1/runner/{id}/heartbeat      runner: renew the lease, report progress
+    POST /api/v1/runner/{id}/report         runner: the pre-flight's or the run's outcome
+    GET  /auth/token                        Docker registry token endpoint
+"""
+
+from __future__ import annotations
+
+import base64
+import hmac
+import logging
+from typing import Annotated, Any
+
+from fastapi import Depends, FastAPI, Header, HTTPException, Query, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse, Response
+
+from orchestrator._channel.channel import Channel, utc_text
+from orchestrator._channel.db import ChannelError
+from orchestrator._channel.registry import RUNNER, grant
+from schemas import Claim, Outcome, Progress, SubmissionView, SubmitRequest, Work
+
+log = logging.getLogger("eagc.channel")
+#: Largest request body accepted (a disclosure is the largest thing a team sends).
+MAX_BODY = 256 * 1024
+
+
+def _bearer(authorization: str | None) -> str:
+    if not authorization or not authorization.lower().startswith("bearer "):
+        raise HTTPException(401, "no token: log in first (eagc login URL --team NAME "
+                            "--token TOKEN)")
+    return authorization[7:].strip()
+
+
+def _channel(request: Request) -> Channel:
+    channel: Channel = request.app.state.channel
+    return channel
+
+
+def _team(request: Request, authorization: Annotated[str | None, Header()] = None) -> str:
+    check = _channel(request).db.check_token(_bearer(authorization))
+    if check.team is None:
+        raise HTTPException(401, check.problem)
+    return check.team
+
+
+def _runner(request: Request, authorization: Annotated[str | None, Header()] = None) -> None:
+    if not hmac.compare_digest(_bearer(authorization), _channel(request).runner_token):
+        raise HTTPException(401, "not the runner's token (<data>/runner.token)")
+
+
+Team = Annotated[str, Depends(_team)]
+Runner = Annotated[None, Depends(_runner)]
+
+
+def create_app(channel: Channel) -> FastAPI:
+    app = FastAPI(title=f"eagc channel: {channel.spec.name}", version="1",
+                  docs_url=None, redoc_url=None)
+    app.state.channel = channel
+
+    @app.exception_handler(ChannelError)
+    async def channel_error(_: Request, e: ChannelError) -> JSONResponse:
+        return JSONResponse({"detail": str(e)}, status_code=e.status)
+
+    @app.exception_handler(RequestValidationError)
+    async def bad_request(_: Request, e: RequestValidationError) -> JSONResponse:
+        first = e.errors()[0] if e.errors() else {}
+        where = ".".join(str(p) for p in first.get("loc", ()) if p != "body")
+        return JSONResponse({"detail": f"malformed request: {where or 'body'}: "
+                             f"{first.get('msg', 'invalid')}"}, status_code=422)
+
+    @app.middleware("http")
+    async def cap_body(request: Request, call_next: Any) -> Any:
+        size = request.headers.get("content-length")
+        if size is not None and (not size.isdigit() or int(size) > MAX_BODY):
+            return JSONResponse({"detail": f"request body over {MAX_BODY // 1024} KiB"},
+                                status_code=413)
+        return await call_next(request)
+
+    @app.get("/api/v1/whoami")
+    def whoami(who: Team) -> dict[str, Any]:
+        try:
+            phase = channel.open_phase()
+            open_phase: dict[str, Any] | None = {"name": phase.name, "kind": phase.kind}
+        except ChannelError as e:
+            open_phase, why = None, str(e)
+        else:
+            why = ""
+        return {"team": who, "challenge": channel.spec.name, "track": channel.spec.track,
+                "registry": channel.registry_address(), "repository": f"teams/{who}",
+                "phase": open_phase, "closed_because": why,
+                "phases": [{"name": w.phase.name, "kind": w.phase.kind,
+                            "opens": utc_text(w.opens),
+                            "closes": None if w.closes is None else utc_text(w.closes)}
+                           for w in channel.windows()]}
+
+    @app.post("/api/v1/submissions", status_code=201)
+    def submit(req: SubmitRequest, who: Team) -> SubmissionView:
+        return channel.submit(who, req)
+
+    @app.get("/api/v1/submissions")
+    def submissions(who: Team) -> list[SubmissionView]:
+        return channel.submissions(who)
+
+    @app.get("/api/v1/submissions/{sid}")
+    def submission(sid: str, who: Team) -> SubmissionView:
+        return channel.view(sid, team=who)
+
+    @app.get("/api/v1/board")
+    def board(who: Team) -> dict[str, Any]:
+        phase = channel.open_phase()
+        b = channel.board(phase)
+        if b is None:
+            return {"phase": phase.name, "rows": []}
+        return {"phase": phase.name, "rows": [
+            {"rank": r.rank, "ranks": r.ranks, "team": r.team, "final": r.final,
+             "low": r.interval.low if r.interval else None,
+             "high": r.interval.high if r.interval else None, "episodes": r.episodes}
+            for r in b.rows]}
+
+    @app.post("/api/v1/runner/claim")
+    def claim(c: Claim, _: Runner) -> Response:
+        work: Work | None = channel.claim(c.runner, c.kind)
+        if work is None:
+            return Response(status_code=204)
+        return JSONResponse(work.model_dump(mode="json"))
+
+    @app.get("/api/v1/runner/campaign/{phase}")
+    def campaign(phase: str, _: Runner) -> dict[str, Any]:
+        spec = channel.campaign(channel.phase(phase), channel.data / "runs")
+        return spec.model_dump(mode="json")
+
+    @app.get("/api/v1/runner/preflight/{phase}")
+    def preflight(phase: str, _: Runner) -> dict[str, Any]:
+        return channel.phase(phase).preflight.model_dump(mode="json")
+
+    @app.post("/api/v1/runner/{sid}/heartbeat", status_code=204)
+    def heartbeat(sid: str, p: Progress, _: Runner) -> None:
+        channel.heartbeat(sid, p)
+
+    @app.post("/api/v1/runner/{sid}/report")
+    def report(sid: str, o: Outcome, _: Runner) -> SubmissionView:
+        return channel.report(sid, o)
+
+    @app.get("/auth/token")
+    def token(request: Request, service: str = "", account: str = "",
+              scope: Annotated[list[str] | None, Query()] = None) -> dict[str, Any]:
+        who = _basic(request.headers.get("authorization"), channel)
+        return channel.keys.token(who, grant(who, scope or []))
+
+    return app
+
+
+def _basic(header: str | None, channel: Channel) -> str:
+    """The registry's caller from HTTP Basic credentials: a team, or the runner."""
+    if not header or not header.lower().startswith("basic "):
+        raise HTTPException(401, "credentials required: `eagc submit` logs the engine in "
+                            "for you", headers={"WWW-Authenticate": 'Basic realm="eagc"'})
+    try:
+        user, _, password = base64.b64decode(header[6:]).decode().partition(":")
+    except ValueError:
+        raise HTTPException(401, "malformed Basic credentials") from None
+    if user == RUNNER:
+        if hmac.compare_digest(password, channel.runner_token):
+            return RUNNER
+        raise HTTPException(401, "not the runner's token")
+    check = channel.db.check_token(password)
+    if check.team is None:
+        raise HTTPException(401, check.problem)
+    if check.team != user:
+        raise HTTPException(401, f"this token is team {check.team}'s, not {user!r}'s")
+    return check.team

@@ -1,0 +1,393 @@
+"""The channel's rules: who may submit what, when, and what each party is shown.
+
+``Channel`` is what the API calls: it owns the database, the registry's keys and address,
+the clock and the challenge file, and moves submissions through their states::
+
+    received → preflight → queued → running → scored
+        ╰──────────┴──────────┴─────────┴──→ failed | cancelled
+
+A submission is taken by a runner under a lease that heartbeats renew; a lease that runs
+out puts the submission back where it was waiting (``received`` or ``queued``), so nothing
+stays "running" after its runner is gone. A pre-flight that fails for the team's reason
+ends the submission at no cost; a failure of the platform's (the registry, the engine, the
+cluster) sends it back to wait, up to the phase's ``retries``.
+
+What a team sees of its submission (``view``): states, position and ETA while queued, and
+once scored, per split its score with a 95 % interval and each episode's verdict. Of a
+hidden split, never a seed, a scenario, a per-episode score or a log (they would let a team
+probe fixed hidden seeds); of a public split, everything.
+"""
+
+from __future__ import annotations
+
+import json
+import secrets
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from orchestrator._channel.db import ChannelDB, ChannelError, Clock, Row
+from orchestrator._channel.registry import Keys, RegistryProcess, repository_team
+from schemas import (
+    CampaignSpec,
+    ChallengePhase,
+    ChallengeSpec,
+    EpisodeResult,
+    EpisodeRow,
+    EpisodeVerdict,
+    Outcome,
+    Progress,
+    SplitSummary,
+    Submission,
+    SubmissionState,
+    SubmissionView,
+    SubmitRequest,
+    Work,
+    parse_when,
+)
+
+S = SubmissionState
+_DIGEST = "sha256:"
+
+
+@dataclass(frozen=True)
+class PhaseWindow:
+    phase: ChallengePhase
+    opens: datetime
+    closes: datetime | None
+
+    def open_at(self, now: datetime) -> bool:
+        return self.opens <= now and (self.closes is None or now < self.closes)
+
+
+class Channel:
+    """One challenge's channel over its data folder (``--data``)."""
+
+    def __init__(self, spec: ChallengeSpec, data: Path, *, clock: Clock | None = None,
+                 registry: RegistryProcess | None = None) -> None:
+        self.spec, self.data = spec, data
+        self.clock = clock or Clock()
+        data.mkdir(parents=True, exist_ok=True)
+        data.chmod(0o700)
+        self.db = ChannelDB(data / "channel.sqlite", self.clock)
+        self.keys = Keys(data / "keys")
+        self.registry = registry
+        started = self.db.set_meta("started", f"{self.clock.now():.3f}", keep=True)
+        self.started = self.clock.utc(float(started))
+        self.runner_token = self._secret_file(data / "runner.token")
+
+    # ------------------------------------------------------------------ set-up
+    @staticmethod
+    def _secret_file(path: Path) -> str:
+        if not path.is_file():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(secrets.token_hex(32) + "\n")
+            path.chmod(0o600)
+        return path.read_text().strip()
+
+    def add_spec_teams(self) -> list[str]:
+        """Adds the teams the challenge file names; returns those that were new."""
+        return [t for t in self.spec.teams if self.db.add_team(t)]
+
+    def windows(self) -> list[PhaseWindow]:
+        return [PhaseWindow(p, parse_when(p.opens, self.started),
+                            None if p.closes is None else parse_when(p.closes, self.started))
+                for p in self.spec.phases]
+
+    def open_phase(self) -> ChallengePhase:
+        """The phase open now; ChannelError (403) naming the next window otherwise."""
+        now = self.clock.utc()
+        windows = self.windows()
+        for w in windows:
+            if w.open_at(now):
+                return w.phase
+        later = [w for w in windows if w.opens > now]
+        if later:
+            w = min(later, key=lambda w: w.opens)
+            raise ChannelError(f"no phase is open now ({now:%Y-%m-%d %H:%M} UTC): phase "
+                               f"{w.phase.name} opens {w.opens:%Y-%m-%d %H:%M} UTC", 403)
+        raise ChannelError(f"no phase is open now ({now:%Y-%m-%d %H:%M} UTC): the last one "
+                           "has closed", 403)
+
+    def phase(self, name: str) -> ChallengePhase:
+        for p in self.spec.phases:
+            if p.name == name:
+                return p
+        raise ChannelError(f"no phase {name!r}", 404)
+
+    def campaign(self, phase: ChallengePhase, runs: Path,
+                 submissions: tuple[Submission, ...] = ()) -> CampaignSpec:
+        """The campaign every submission of ``phase`` plays (its seeds: campaign name,
+        split and index, from the phase's own secret)."""
+        secret = phase.secret or f"file:{self.phase_secret(phase)}"
+        return CampaignSpec(
+            name=self.spec.campaign_name(phase), track=self.spec.track, phase=phase.kind,
+            splits=phase.splits, limits=phase.limits, retries=phase.retries, secret=secret,
+            output=runs,
+            submissions=submissions or (Submission(team="placeholder", image="none"),))
+
+    def phase_secret(self, phase: ChallengePhase) -> Path:
+        path = self.data / "secrets" / f"{phase.name}.secret"
+        path.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+        self._secret_file(path)
+        return path
+
+    # ------------------------------------------------------------------ teams' side
+    def registry_address(self) -> str:
+        if self.registry is None:
+            raise ChannelError("the channel's registry is not running", 503)
+        return self.registry.address
+
+    def submit(self, team: str, req: SubmitRequest) -> SubmissionView:
+        """Accepts ``req`` for ``team`` in the open phase: resolves the image's manifest
+        digest (from then on only that digest runs) and queues its pre-flight."""
+        phase = self.open_phase()
+        repository, reference = split_reference(req.image)
+        owner = repository_team(repository)
+        if owner is None:
+            raise ChannelError(f"{req.image!r} is not an image of the channel's registry: "
+                               f"push it as teams/{team}/<name>:<tag> (`eagc submit` does)")
+        if owner != team:
+            raise ChannelError(f"{repository} is not team {team}'s repository: submit an "
+                               f"image of teams/{team}/…", 403)
+        if self.registry is None:
+            raise ChannelError("the channel's registry is not running", 503)
+        digest = self.registry.manifest_digest(repository, reference)
+        if digest is None:
+            raise ChannelError(f"the registry has no image {repository}"
+                               f"{'@' if reference.startswith(_DIGEST) else ':'}{reference}: "
+                               "push it first (`eagc submit LOCAL_IMAGE` pushes and submits)",
+                               404)
+        if reference.startswith(_DIGEST) and digest != reference:
+            raise ChannelError(f"the registry resolves {reference} to {digest}", 409)
+        planned = sum(s.episodes for s in phase.splits)
+        sid = self.db.create(team=team, phase=phase.name, repository=repository,
+                             digest=digest, note=req.note, disclosure=req.disclosure,
+                             planned=planned)
+        return self.view(sid, team=team)
+
+    def row_for(self, sid: str, team: str | None) -> Row:
+        """A submission's row; one of another team's is 'not found', as a missing one."""
+        row = self.db.get(sid)
+        if row is None or (team is not None and row.team != team):
+            raise ChannelError(f"no submission {sid!r} of team {team}" if team else
+                               f"no submission {sid!r}", 404)
+        return row
+
+    def view(self, sid: str, *, team: str | None) -> SubmissionView:
+        """What ``team`` (None: an organizer) sees of a submission."""
+        row = self.row_for(sid, team)
+        position = eta = None
+        if row.state == S.QUEUED:
+            queue = self.db.queue()
+            ahead = [r for r in queue if (r.queued_at or 0, r.id) < (row.queued_at or 0, row.id)]
+            position = len(ahead) + 1
+            per = self.db.seconds_per_episode()
+            if per is not None:
+                running = self.db.rows(states=(S.RUNNING,))
+                left = sum(max(r.episodes_planned - r.episodes_done, 0) for r in running)
+                eta = per * (left + sum(r.episodes_planned for r in ahead))
+        result = row.result or {}
+        return SubmissionView(
+            id=row.id, team=row.team, phase=row.phase, state=row.state,
+            image=f"{row.repository}@{row.digest}", image_id=row.image_id, note=row.note,
+            created_at=self.clock.utc(row.created_at),
+            updated_at=self.clock.utc(row.updated_at), reason=row.reason,
+            position=position, eta_s=eta, episodes_done=row.episodes_done,
+            episodes_planned=row.episodes_planned, final=result.get("final"),
+            final_low=result.get("final_low"), final_high=result.get("final_high"),
+            splits=tuple(SplitSummary.model_validate(s) for s in result.get("splits", ())),
+            preflight=row.preflight, history=tuple(self.db.history(row.id)))
+
+    def submissions(self, team: str | None) -> list[SubmissionView]:
+        return [self.view(r.id, team=team) for r in self.db.rows(team=team)]
+
+    # ------------------------------------------------------------------ runner's side
+    def expire_leases(self) -> list[str]:
+        """Puts back every submission whose runner stopped renewing its lease."""
+        now = self.clock.now()
+        back = []
+        with self.db.tx() as db:
+            for sid, state in db.execute(
+                    "SELECT id, state FROM submissions WHERE state IN (?, ?) AND lease_until<?",
+                    (str(S.PREFLIGHT), str(S.RUNNING), now)).fetchall():
+                waiting = S.RECEIVED if state == S.PREFLIGHT else S.QUEUED
+                self.db.move(db, sid, waiting,
+                             "back in line: its runner stopped answering (lease expired)",
+                             lease_owner=None, lease_until=None,
+                             lease_expiries=_plus(db, sid, "lease_expiries"))
+                back.append(sid)
+        return back
+
+    def claim(self, runner: str, kind: str) -> Work | None:
+        """The oldest submission waiting for ``kind`` of work, leased to ``runner``."""
+        self.expire_leases()
+        registry = self.registry_address()  # before anything is leased
+        waiting, taken = ((S.RECEIVED, S.PREFLIGHT) if kind == "preflight"
+                          else (S.QUEUED, S.RUNNING))
+        order = "created_at" if kind == "preflight" else "queued_at"
+        with self.db.tx() as db:
+            got = db.execute(f"SELECT id FROM submissions WHERE state=? ORDER BY {order}, id "
+                             "LIMIT 1", (str(waiting),)).fetchone()
+            if got is None:
+                return None
+            sid = got[0]
+            what = "pre-flight" if kind == "preflight" else "run"
+            self.db.move(db, sid, taken, f"{what} under way on runner {runner}",
+                         lease_owner=runner,
+                         lease_until=self.clock.now() + self.spec.lease_s)
+        row = self.row_for(sid, None)
+        return Work(id=sid, team=row.team, phase=row.phase, kind=kind,  # type: ignore[arg-type]
+                    image=f"{registry}/{row.repository}@{row.digest}",
+                    digest=row.digest, image_id=row.image_id, lease_s=self.spec.lease_s,
+                    disclosure=row.disclosure)
+
+    def _leased(self, sid: str, runner: str) -> Row:
+        row = self.row_for(sid, None)
+        if row.lease_owner != runner or row.state not in (S.PREFLIGHT, S.RUNNING):
+            raise ChannelError(f"runner {runner} does not hold {sid} (it is {row.state}): its "
+                               "lease expired and the submission went back in line", 409)
+        return row
+
+    def heartbeat(self, sid: str, p: Progress) -> None:
+        self._leased(sid, p.runner)
+        with self.db.tx() as db:
+            db.execute("UPDATE submissions SET lease_until=?, episodes_done=?, "
+                       "episodes_planned=MAX(episodes_planned, ?), "
+                       "image_id=COALESCE(?, image_id) WHERE id=?",
+                       (self.clock.now() + self.spec.lease_s, p.episodes_done,
+                        p.episodes_planned, p.image_id, sid))
+
+    def report(self, sid: str, o: Outcome) -> SubmissionView:
+        row = self._leased(sid, o.runner)
+        phase = self.phase(row.phase)
+        free = dict(lease_owner=None, lease_until=None)
+        if o.image_id:
+            free["image_id"] = o.image_id
+        with self.db.tx() as db:
+            if o.infrastructure:
+                tries = row.infra_retries + 1
+                if tries > phase.retries:
+                    self.db.move(db, sid, S.FAILED, f"infrastructure: {o.reason} (after "
+                                 f"{phase.retries} retr{'y' if phase.retries == 1 else 'ies'};"
+                                 " not the team's fault)", infra_retries=tries, **free)
+                else:
+                    back = S.RECEIVED if o.kind == "preflight" else S.QUEUED
+                    self.db.move(db, sid, back, "waiting again after an infrastructure "
+                                 "failure (not the team's fault, no cost)",
+                                 detail=f"infrastructure: {o.reason}", infra_retries=tries,
+                                 **free)
+            elif o.kind == "preflight":
+                if o.ok:
+                    self.db.move(db, sid, S.QUEUED, "waiting for a runner",
+                                 detail=f"pre-flight passed: {o.reason}",
+                                 queued_at=self.clock.now(), preflight=f"passed: {o.reason}",
+                                 **free)
+                else:
+                    self.db.move(db, sid, S.FAILED, f"pre-flight: {o.reason}",
+                                 preflight=f"failed: {o.reason}", **free)
+            else:
+                result = self.summarize(row, phase, o.results)
+                self.db.move(db, sid, S.SCORED, "scored",
+                             detail=f"final {result.get('final')}",
+                             result=json.dumps(result), wall_s=o.wall_s,
+                             episodes_done=len(o.results), **free)
+        return self.view(sid, team=None)
+
+    # ------------------------------------------------------------------ scores
+    def store(self) -> Any:
+        from orchestrator._results.store import ResultsStore
+
+        return ResultsStore(self.data / "results.sqlite")
+
+    def summarize(self, row: Row, phase: ChallengePhase,
+                  results: tuple[EpisodeRow, ...]) -> dict[str, Any]:
+        """Commits a run's results to the channel's store and returns what its team is
+        shown: per split its score and interval, each episode's verdict (hidden splits: no
+        per-episode score)."""
+        from orchestrator._campaign.seeds import commitment, load_secret, seed_list
+        from orchestrator._results.leaderboard import build_leaderboard
+        from orchestrator._results.store import EpisodeKey
+        from plugins import load_track
+
+        spec = self.campaign(phase, self.data / "runs",
+                             (Submission(team=row.id, image=row.repository, digest=None),))
+        with self.store() as store:
+            store.register(spec, commitment(spec, seed_list(spec, load_secret(spec))),
+                           sum(s.episodes for s in spec.splits))
+            for e in results:
+                store.commit(spec.name, EpisodeKey(row.id, e.split, e.index), e.result,
+                             retry=0, node=None)
+            board = build_leaderboard(spec, store)
+        mine = board.rows[0]
+        public = set(load_track(spec.track).split_names()) - set(
+            load_track(spec.track).splits)
+        splits = []
+        for s in spec.splits:
+            eps = sorted((e for e in results if e.split == s.name), key=lambda e: e.index)
+            value = mine.values.get(s.name) if len(spec.splits) > 1 else mine.final
+            interval = (mine.intervals.get(s.name) if len(spec.splits) > 1
+                        else mine.interval)
+            shown = s.name in public
+            splits.append(SplitSummary(
+                split=s.name, score=value or 0.0,
+                low=interval.low if interval else (value or 0.0),
+                high=interval.high if interval else (value or 0.0),
+                episodes=len(eps), public=shown,
+                verdicts=tuple(_verdict(e.index, e.result) for e in eps),
+                scores=tuple(100.0 * e.result.score.total for e in eps) if shown else None,
+            ).model_dump(mode="json"))
+        final = mine.final
+        return {"final": final,
+                "final_low": mine.interval.low if mine.interval else final,
+                "final_high": mine.interval.high if mine.interval else final,
+                "splits": splits}
+
+    def board(self, phase: ChallengePhase) -> Any:
+        """The phase's leaderboard: each team's latest scored submission, with intervals
+        and rank ranges from the paired episodes; rows named by team."""
+        from orchestrator._results.leaderboard import build_leaderboard
+
+        latest: dict[str, Row] = {}
+        for r in self.db.rows(phase=phase.name, states=(S.SCORED,)):
+            if r.team not in latest or r.updated_at >= latest[r.team].updated_at:
+                latest[r.team] = r
+        if not latest:
+            return None
+        subs = tuple(Submission(team=r.id, image=r.repository) for r in latest.values())
+        spec = self.campaign(phase, self.data / "runs", subs)
+        with self.store() as store:
+            board = build_leaderboard(spec, store)
+        names = {r.id: r.team for r in latest.values()}
+        for row in board.rows:
+            row.team = names.get(row.team, row.team)
+        for f in board.failures:
+            object.__setattr__(f, "team", names.get(f.team, f.team))
+        return board
+
+
+def _verdict(index: int, result: EpisodeResult) -> dict[str, Any]:
+    return EpisodeVerdict(index=index, status=result.status.value,
+                          failure_kind=result.status.failure_kind).model_dump()
+
+
+def _plus(db: Any, sid: str, column: str) -> int:
+    return int(db.execute(f"SELECT {column} FROM submissions WHERE id=?",
+                          (sid,)).fetchone()[0]) + 1
+
+
+def split_reference(image: str) -> tuple[str, str]:
+    """``repo@sha256:…`` / ``repo:tag`` / ``repo`` → (repository, reference)."""
+    if "@" in image:
+        repo, _, ref = image.partition("@")
+        return repo, ref
+    last = image.rsplit("/", 1)[-1]
+    if ":" in last:
+        repo, _, tag = image.rpartition(":")
+        return repo, tag
+    return image, "latest"
+
+
+def utc_text(t: datetime) -> str:
+    return t.astimezone(UTC).strftime("%Y-%m-%d %H:%M UTC")

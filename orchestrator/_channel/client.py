@@ -1,0 +1,183 @@
+"""The channel's clients: a team's (``eagc login``, ``submit``, ``submissions``) and the
+runner's, both over the channel's HTTP API; and the push of a local image to the channel's
+registry, which ``eagc submit`` does so that a team never types the registry's address.
+
+A team's login is kept in ``$XDG_CONFIG_HOME/eagc/channel.json`` (``~/.config``), mode 0600;
+``EAGC_CHANNEL_URL``, ``EAGC_CHANNEL_TEAM`` and ``EAGC_CHANNEL_TOKEN`` override it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from orchestrator._channel.db import ChannelError
+from schemas import SubmissionView, SubmitRequest
+
+ENV = {"url": "EAGC_CHANNEL_URL", "team": "EAGC_CHANNEL_TEAM", "token": "EAGC_CHANNEL_TOKEN"}
+
+
+def config_path() -> Path:
+    base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
+    return Path(base) / "eagc" / "channel.json"
+
+
+@dataclass(frozen=True)
+class Login:
+    url: str
+    team: str
+    token: str
+
+
+def save_login(login: Login) -> Path:
+    path = config_path()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w") as f:
+        json.dump(asdict(login), f, indent=2)
+    path.chmod(0o600)
+    return path
+
+
+def load_login() -> Login:
+    """The saved login with the environment's overrides; ChannelError when incomplete."""
+    saved: dict[str, Any] = {}
+    path = config_path()
+    if path.is_file():
+        try:
+            saved = json.loads(path.read_text())
+        except (OSError, ValueError) as e:
+            raise ChannelError(f"{path} is not readable ({e}): log in again with `eagc "
+                               "login URL --team NAME --token TOKEN`") from None
+    values = {k: os.environ.get(env) or saved.get(k) for k, env in ENV.items()}
+    missing = [k for k, v in values.items() if not v]
+    if missing:
+        raise ChannelError("not logged in to a channel (no " + ", ".join(missing) + "): "
+                           "`eagc login URL --team NAME --token TOKEN` (or set "
+                           + ", ".join(ENV[k] for k in missing) + ")")
+    return Login(**{k: str(v) for k, v in values.items()})
+
+
+class ChannelClient:
+    """JSON over HTTP to the channel; every refusal becomes a one-line ChannelError."""
+
+    def __init__(self, url: str, token: str, timeout_s: float = 30.0) -> None:
+        import requests
+
+        self.url = url.rstrip("/")
+        self.session = requests.Session()
+        self.session.headers["Authorization"] = f"Bearer {token}"
+        self.timeout_s = timeout_s
+
+    def call(self, method: str, path: str, body: Any = None) -> Any:
+        import requests
+
+        try:
+            r = self.session.request(method, self.url + path, json=body,
+                                     timeout=self.timeout_s)
+        except requests.RequestException as e:
+            raise ChannelError(f"the channel at {self.url} does not answer "
+                               f"({type(e).__name__}): check the URL of `eagc login`", 503
+                               ) from None
+        if r.status_code == 204:
+            return None
+        try:
+            doc = r.json()
+        except ValueError:
+            doc = {"detail": r.text.strip()[:200] or r.reason}
+        if r.status_code >= 400:
+            detail = doc.get("detail") if isinstance(doc, dict) else None
+            raise ChannelError(str(detail or f"HTTP {r.status_code}"), r.status_code)
+        return doc
+
+    def whoami(self) -> dict[str, Any]:
+        return dict(self.call("GET", "/api/v1/whoami"))
+
+    def submit(self, req: SubmitRequest) -> SubmissionView:
+        return SubmissionView.model_validate(
+            self.call("POST", "/api/v1/submissions", req.model_dump(mode="json")))
+
+    def submissions(self) -> list[SubmissionView]:
+        return [SubmissionView.model_validate(s) for s in self.call("GET", "/api/v1/submissions")]
+
+    def submission(self, sid: str) -> SubmissionView:
+        return SubmissionView.model_validate(self.call("GET", f"/api/v1/submissions/{sid}"))
+
+
+def _is_pushed(image: str) -> bool:
+    """A reference into the channel's registry (the channel checks whose it is)."""
+    return image.startswith("teams/")
+
+
+def push(image: str, login: Login, registry: str,
+         say: Callable[[str], None] = lambda _: None) -> str:
+    """Tags the local ``image`` as ``<registry>/teams/<team>/<name>:<tag>``, pushes it with
+    the team's credentials and returns ``teams/<team>/<name>@<digest>``."""
+    import docker
+    from docker.errors import APIError, DockerException, ImageNotFound
+
+    from orchestrator._channel.channel import split_reference
+
+    try:
+        client = docker.from_env()
+        local = client.images.get(image)
+    except ImageNotFound:
+        raise ChannelError(f"no local image {image!r}: build it first (`docker build -t "
+                           f"{image} .`), or give an image already pushed as "
+                           f"teams/{login.team}/<name>:<tag>") from None
+    except DockerException as e:
+        raise ChannelError(f"cannot reach the Docker engine to push {image}: {e}") from None
+    repo, tag = split_reference(image)
+    if tag.startswith("sha256:"):
+        tag = "latest"
+    name = repo.rsplit("/", 1)[-1].lower()
+    target = f"{registry}/teams/{login.team}/{name}"
+    local.tag(target, tag)
+    say(f"pushing {image} as teams/{login.team}/{name}:{tag}")
+    digest = None
+    try:
+        for line in client.images.push(target, tag, stream=True, decode=True,
+                                       auth_config={"username": login.team,
+                                                    "password": login.token}):
+            if "error" in line:
+                raise ChannelError(f"the registry refused the push: {_push_error(line)}")
+            aux = line.get("aux") or {}
+            digest = aux.get("Digest") or digest
+    except APIError as e:
+        raise ChannelError(f"the push failed: {e.explanation or e}") from None
+    finally:
+        try:
+            client.images.remove(f"{target}:{tag}", noprune=True)
+        except DockerException:
+            pass
+    if not digest:
+        raise ChannelError("the registry did not return the pushed image's digest")
+    return f"teams/{login.team}/{name}@{digest}"
+
+
+def _push_error(line: dict[str, Any]) -> str:
+    text = str(line.get("error") or "").strip()
+    if "denied" in text or "unauthorized" in text:
+        return f"{text} (is the token still valid? `eagc submissions` tells)"
+    return text
+
+
+def submit(image: str, login: Login, *, note: str = "", disclosure: Path | None = None,
+           say: Callable[[str], None] = lambda _: None) -> SubmissionView:
+    """``eagc submit``: pushes a local image (or takes one already pushed) and submits it
+    by its manifest digest."""
+    client = ChannelClient(login.url, login.token)
+    who = client.whoami()  # checks the token before anything is pushed
+    text = None
+    if disclosure is not None:
+        try:
+            text = disclosure.read_text()
+        except OSError as e:
+            raise ChannelError(f"cannot read the disclosure {disclosure}: "
+                               f"{e.strerror or e}") from None
+    ref = image if _is_pushed(image) else push(image, login, who["registry"], say)
+    return client.submit(SubmitRequest(image=ref, note=note, disclosure=text))

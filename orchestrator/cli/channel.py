@@ -1,0 +1,267 @@
+"""The submission channel's commands (``docs/channel.md``).
+
+Organizers: ``eagc challenge serve|teams|runner``. Teams: ``eagc login``, ``eagc submit``,
+``eagc submissions``. Every refusal is one line saying what was wrong and what to do.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from orchestrator.cli.common import EXIT_CODES_HELP, OneLineErrors
+from schemas import SubmissionState, SubmissionView
+
+challenge_app = typer.Typer(
+    cls=OneLineErrors, no_args_is_help=True, pretty_exceptions_enable=False,
+    epilog=EXIT_CODES_HELP,
+    help="Organizers: the submission channel (API, registry, runner) and its teams.")
+teams_app = typer.Typer(cls=OneLineErrors, no_args_is_help=True,
+                        pretty_exceptions_enable=False,
+                        help="The channel's teams: add, list, make a new token.")
+challenge_app.add_typer(teams_app, name="teams")
+out = Console()
+err = Console(stderr=True)
+
+DataOpt = Annotated[Path, typer.Option("--data", help="The channel's data folder.")]
+DEFAULT_DATA = Path("channel")
+
+
+@challenge_app.command("serve")
+def serve_cmd(
+    challenge: Annotated[Path, typer.Argument(help="CHALLENGE.yaml")],
+    data: DataOpt = DEFAULT_DATA,
+    port: Annotated[int, typer.Option(help="The API's port (0: a free one).")] = 8480,
+    host: Annotated[str, typer.Option(help="Where the API and the registry listen.")
+                    ] = "127.0.0.1",
+    registry_port: Annotated[int, typer.Option(help="The registry's port (0: a free one).")
+                             ] = 0,
+    workers: Annotated[int, typer.Option(help="Episodes the runner plays at a time.")] = 1,
+    address: Annotated[str | None, typer.Option(help="A Ray head for the runner's campaigns."
+                                                )] = None,
+    runner: Annotated[bool, typer.Option(help="Start a runner beside the API.")] = True,
+    clock_speed: Annotated[float, typer.Option(hidden=True, help="Channel seconds per real "
+                                               "second (rehearsals).")] = 1.0,
+) -> None:
+    """Start the channel: the API and team pages, the registry and a runner."""
+    from orchestrator._channel.db import Clock
+    from orchestrator._channel.serve import load_challenge, serve
+
+    spec = load_challenge(challenge)
+    clock = Clock(speed=clock_speed) if clock_speed != 1.0 else None
+    serve(spec, data, host=host, port=port, registry_port=registry_port, workers=workers,
+          address=address, runner=runner, clock=clock,
+          say=lambda s: err.print(s, highlight=False, soft_wrap=True))
+
+
+@challenge_app.command("runner")
+def runner_cmd(
+    url: Annotated[str, typer.Argument(help="The channel's URL.")],
+    token_file: Annotated[Path, typer.Option(help="The runner's token (<data>/runner.token).")],
+    runs: Annotated[Path, typer.Option(help="Where campaigns and pre-flights write.")
+                    ] = Path("runs/channel"),
+    workers: Annotated[int, typer.Option(help="Episodes played at a time.")] = 1,
+    address: Annotated[str | None, typer.Option(help="A Ray head (default: embedded).")
+                       ] = None,
+    parent: Annotated[int | None, typer.Option(hidden=True)] = None,
+) -> None:
+    """Take submissions from a channel and run them (a runner on another machine)."""
+    from orchestrator._channel.runner import Runner
+
+    r = Runner(url=url, token=token_file.read_text().strip(), runs=runs, address=address,
+               workers=workers, say=lambda s: err.print(s, highlight=False, soft_wrap=True))
+    if parent is not None:
+        def orphaned() -> None:
+            while not r.stop.wait(2.0):
+                if os.getppid() != parent:
+                    r.stop.set()
+                    os.kill(os.getpid(), 15)
+        threading.Thread(target=orphaned, daemon=True).start()
+    err.print(f"runner {r.name}: taking work from {url}", highlight=False)
+    r.serve()
+
+
+@teams_app.command("add")
+def teams_add(name: Annotated[str, typer.Argument(help="The team's name.")],
+              data: DataOpt = DEFAULT_DATA) -> None:
+    """Add a team and print its first token (alone on the last line)."""
+    import re
+
+    from orchestrator._channel.db import ChannelError
+    from orchestrator._channel.serve import open_db
+    from schemas import TEAM_NAME
+
+    if not re.match(TEAM_NAME, name):
+        raise ChannelError(f"team {name!r}: lower-case letters, digits, '-' and '_', at most "
+                           "39, starting with a letter or digit")
+    db = open_db(data)
+    if not db.add_team(name):
+        raise ChannelError(f"team {name} exists already: `eagc challenge teams token {name}` "
+                           "makes it a new token")
+    _print_token(db, name)
+
+
+@teams_app.command("list")
+def teams_list(data: DataOpt = DEFAULT_DATA) -> None:
+    """The channel's teams."""
+    from orchestrator._channel.serve import open_db
+
+    db = open_db(data)
+    for name, created, disabled in db.teams():
+        n = len(db.rows(team=name))
+        out.print(f"{name:<24} added {datetime.fromtimestamp(created, UTC):%Y-%m-%d %H:%M} UTC"
+                  f"  {n} submission{'s' if n != 1 else ''}{'  DISABLED' if disabled else ''}",
+                  highlight=False)
+
+
+@teams_app.command("token")
+def teams_token(name: Annotated[str, typer.Argument(help="The team's name.")],
+                data: DataOpt = DEFAULT_DATA) -> None:
+    """Make a team a new token (its old one stops working); the token is the last line."""
+    from orchestrator._channel.serve import open_db
+
+    _print_token(open_db(data), name)
+
+
+def _print_token(db: object, team: str) -> None:
+    from orchestrator._channel.db import ChannelDB
+
+    assert isinstance(db, ChannelDB)
+    days = float(db.meta("token_days") or 60)
+    token, expires = db.new_token(team, days)
+    err.print(f"team {team}: a new token, valid until "
+              f"{datetime.fromtimestamp(expires, UTC):%Y-%m-%d %H:%M} UTC (shown once; "
+              "any earlier token of the team is revoked):", highlight=False)
+    print(token)
+
+
+# ---------------------------------------------------------------------- teams' commands
+def login_cmd(
+    url: Annotated[str, typer.Argument(help="The channel's URL (from the organizers).")],
+    team: Annotated[str, typer.Option(help="Your team's name.")],
+    token: Annotated[str, typer.Option(help="Your team's token.")],
+) -> None:
+    """Log in to a challenge's channel (kept in your user's config, mode 0600)."""
+    from orchestrator._channel.client import ChannelClient, Login, save_login
+
+    who = ChannelClient(url, token).whoami()
+    if who["team"] != team:
+        from orchestrator._channel.db import ChannelError
+
+        raise ChannelError(f"this token is team {who['team']}'s, not {team}'s")
+    path = save_login(Login(url, team, token))
+    phase = who.get("phase")
+    out.print(f"logged in to {who['challenge']} ({who['track']}) as team {team}; "
+              + (f"phase {phase['name']} is open" if phase else who["closed_because"])
+              + f"\n(kept in {path})", highlight=False)
+
+
+def submit_cmd(
+    image: Annotated[str, typer.Argument(help="Your local image (pushed for you), or one "
+                                         "already pushed: teams/<team>/<name>[:tag|@digest]")],
+    note: Annotated[str, typer.Option(help="A note kept with the submission.")] = "",
+    disclosure: Annotated[Path | None, typer.Option(help="Your resource disclosure (YAML "
+                                                    "or JSON).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+) -> None:
+    """Push your image to the challenge's registry and submit it by its digest."""
+    from orchestrator._channel.client import load_login, submit
+
+    login = load_login()
+    view = submit(image, login, note=note, disclosure=disclosure,
+                  say=lambda s: err.print(s, highlight=False))
+    if as_json:
+        print(view.model_dump_json())
+        return
+    out.print(f"submitted {view.id}: {_short(view.image)}", highlight=False)
+    out.print("it runs its pre-flight first; follow it with", highlight=False)
+    out.print(f"  eagc submissions {view.id} --follow", highlight=False)
+
+
+def submissions_cmd(
+    sid: Annotated[str | None, typer.Argument(help="One submission (default: all yours).")
+                   ] = None,
+    follow: Annotated[bool, typer.Option(help="Watch it until it is scored, failed or "
+                                         "cancelled.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="JSON (one object for one "
+                                          "submission).")] = False,
+) -> None:
+    """Your team's submissions: state, queue position, ETA, scores."""
+    from orchestrator._channel.client import ChannelClient, load_login
+
+    login = load_login()
+    client = ChannelClient(login.url, login.token)
+    if sid is None:
+        views = client.submissions()
+        if as_json:
+            print(json.dumps([v.model_dump(mode="json") for v in views]))
+            return
+        if not views:
+            out.print("no submissions yet: `eagc submit IMAGE`", highlight=False)
+        for v in views:
+            out.print(_line(v), highlight=False)
+        return
+    view = client.submission(sid)
+    shown = ""
+    while True:
+        now = _line(view)
+        if follow and now != shown and not as_json:
+            out.print(f"{datetime.now(UTC):%H:%M:%S}  {now}", highlight=False)
+            shown = now
+        if not follow or view.state.final:
+            break
+        time.sleep(2.0)
+        view = client.submission(sid)
+    if as_json:
+        print(view.model_dump_json())
+    else:
+        _details(view)
+
+
+def _line(v: SubmissionView) -> str:
+    what = {SubmissionState.QUEUED: (f"position {v.position}"
+                                     + (f", starts in ~{_dur(v.eta_s)}" if v.eta_s is not None
+                                        else ", ETA after the first run is measured")),
+            SubmissionState.RUNNING: f"{v.episodes_done}/{v.episodes_planned} episodes",
+            SubmissionState.SCORED: (f"final {v.final:.1f} [{v.final_low:.1f}, "
+                                     f"{v.final_high:.1f}]" if v.final is not None
+                                     else "scored"),
+            }.get(v.state, v.reason)
+    return f"{v.id}  {v.phase:<10} {v.state.value:<9} {what}"
+
+
+def _short(image: str) -> str:
+    """``repo@sha256:<12 hex>``: the digest's first 12 hex digits (``--json`` has it all)."""
+    repo, _, digest = image.partition("@")
+    return f"{repo}@{digest[:19]}" if digest else repo
+
+
+def _dur(s: float) -> str:
+    return f"{s / 60:.0f} min" if s >= 90 else f"{s:.0f} s"
+
+
+def _details(v: SubmissionView) -> None:
+    out.print(_line(v), highlight=False)
+    out.print(f"  image {_short(v.image)}", highlight=False)
+    if v.preflight:
+        out.print(f"  pre-flight {v.preflight}", highlight=False)
+    if v.state == SubmissionState.FAILED:
+        out.print(f"  why: {v.reason}", highlight=False)
+    for s in v.splits:
+        kinds: dict[str, int] = {}
+        for e in s.verdicts:
+            kinds[e.status] = kinds.get(e.status, 0) + 1
+        verdicts = ", ".join(f"{n} {k}" for k, n in sorted(kinds.items()))
+        out.print(f"  {s.split:<10} {s.score:5.1f} [{s.low:.1f}, {s.high:.1f}]  "
+                  f"{s.episodes} episodes: {verdicts}", highlight=False)
+    for h in v.history:
+        detail = _short(h.detail) if h.state == SubmissionState.RECEIVED else h.detail
+        out.print(f"  {h.at:%m-%d %H:%M:%S}  {h.state.value:<9} {detail}", highlight=False)

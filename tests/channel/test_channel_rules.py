@@ -1,0 +1,189 @@
+"""The channel's rules on its real database, with its clock injected (no registry, no
+Docker): tokens that expire and are revoked, leases that run out, infrastructure failures
+that cost nothing, pre-flights that fail for the team's reason, queue positions and ETAs,
+and the challenge file's times."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from pathlib import Path
+
+import pytest
+from pydantic import ValidationError
+
+from orchestrator._channel.channel import Channel, split_reference
+from orchestrator._channel.db import ChannelError, Clock
+from orchestrator._channel.registry import RegistryProcess
+from schemas import ChallengeSpec, Outcome, Progress, SubmissionState, parse_when
+
+S = SubmissionState
+T0 = datetime(2026, 5, 1, 12, 0, tzinfo=UTC).timestamp()
+
+
+def _spec(**extra: object) -> ChallengeSpec:
+    doc = {"name": "rules", "track": "sanity", "teams": ["team-a", "team-b"], "lease_s": 60,
+           "phases": [{"name": "open", "splits": [{"name": "standard", "episodes": 3}],
+                       "retries": 1}]}
+    doc.update(extra)
+    return ChallengeSpec.model_validate(doc)
+
+
+@pytest.fixture()
+def channel(tmp_path: Path) -> Channel:
+    clock = Clock(origin=T0, speed=0.0)  # frozen: the test moves it
+    ch = Channel(_spec(), tmp_path / "data", clock=clock)
+    ch.add_spec_teams()
+    # Its address only: claims name the image to pull there (nothing is pulled here).
+    ch.registry = RegistryProcess(tmp_path / "registry", ch.keys, realm="http://unused",
+                                  port=5999)
+    return ch
+
+
+def _advance(channel: Channel, seconds: float) -> None:
+    channel.clock.origin += seconds
+
+
+def _submission(channel: Channel, team: str = "team-a") -> str:
+    return channel.db.create(team=team, phase="open", repository=f"teams/{team}/agent",
+                             digest="sha256:" + "a" * 64, note="", disclosure=None, planned=3)
+
+
+def test_a_token_is_accepted_until_it_expires_or_is_replaced(channel: Channel) -> None:
+    token, _ = channel.db.new_token("team-a", days=2)
+    assert channel.db.check_token(token).team == "team-a"
+    unknown = channel.db.check_token("eagc_not-a-token")
+    assert unknown.team is None and "not one the channel issued" in unknown.problem
+    _advance(channel, 2 * 86400 + 1)
+    expired = channel.db.check_token(token)
+    assert expired.team is None and "expired on 2026-05-03 12:00 UTC" in expired.problem
+    fresh, _ = channel.db.new_token("team-a", days=2)
+    revoked = channel.db.check_token(token)
+    assert revoked.team is None and "revoked on 2026-05-03" in revoked.problem
+    assert channel.db.check_token(fresh).team == "team-a"
+    # Stored hashed: the token itself is nowhere in the database.
+    assert fresh.encode() not in (channel.data / "channel.sqlite").read_bytes()
+
+
+def test_a_runner_that_stops_renewing_loses_the_submission_to_the_queue(
+        channel: Channel) -> None:
+    sid = _submission(channel)
+    work = channel.claim("r1", "preflight")
+    assert work is not None and work.id == sid
+    channel.report(sid, Outcome(runner="r1", kind="preflight", ok=True, reason="fine"))
+    assert channel.db.get(sid).state == S.QUEUED  # type: ignore[union-attr]
+    assert channel.claim("r1", "run") is not None
+    _advance(channel, 40)
+    channel.heartbeat(sid, Progress(runner="r1", episodes_done=1, episodes_planned=3))
+    _advance(channel, 40)  # 80 s after the claim, 40 after the heartbeat: still held
+    assert channel.expire_leases() == []
+    _advance(channel, 21)  # 61 s without a heartbeat
+    assert channel.expire_leases() == [sid]
+    row = channel.db.get(sid)
+    assert row is not None and row.state == S.QUEUED and row.lease_expiries == 1
+    assert "lease expired" in row.reason
+    # The lost runner can neither renew nor report any more; another runner takes it.
+    with pytest.raises(ChannelError) as e:
+        channel.heartbeat(sid, Progress(runner="r1"))
+    assert e.value.status == 409
+    again = channel.claim("r2", "run")
+    assert again is not None and again.id == sid
+
+
+def test_infrastructure_failures_wait_again_at_no_cost_then_fail_as_not_the_teams(
+        channel: Channel) -> None:
+    sid = _submission(channel)
+    channel.claim("r", "preflight")
+    channel.report(sid, Outcome(runner="r", kind="preflight", ok=True))
+    channel.claim("r", "run")
+    channel.report(sid, Outcome(runner="r", kind="run", ok=False, infrastructure=True,
+                                reason="the engine went away"))
+    row = channel.db.get(sid)
+    assert row is not None and row.state == S.QUEUED and row.infra_retries == 1
+    channel.claim("r", "run")
+    channel.report(sid, Outcome(runner="r", kind="run", ok=False, infrastructure=True,
+                                reason="the engine went away again"))
+    view = channel.view(sid, team="team-a")
+    assert view.state == S.FAILED
+    assert view.reason.startswith("infrastructure: the engine went away again")
+    assert "not the team's fault" in view.reason
+    states = [h.state for h in view.history]
+    assert states == [S.RECEIVED, S.PREFLIGHT, S.QUEUED, S.RUNNING, S.QUEUED, S.RUNNING,
+                      S.FAILED]
+
+
+def test_a_failed_preflight_ends_the_submission_with_the_check_that_failed(
+        channel: Channel) -> None:
+    sid = _submission(channel)
+    channel.claim("r", "preflight")
+    channel.report(sid, Outcome(runner="r", kind="preflight", ok=False,
+                                reason="the container starts: exec format error"))
+    view = channel.view(sid, team="team-a")
+    assert view.state == S.FAILED
+    assert view.reason == "pre-flight: the container starts: exec format error"
+    assert channel.claim("r", "run") is None
+
+
+def test_another_teams_submission_is_not_found_as_a_missing_one(channel: Channel) -> None:
+    sid = _submission(channel, "team-a")
+    with pytest.raises(ChannelError) as theirs:
+        channel.view(sid, team="team-b")
+    with pytest.raises(ChannelError) as missing:
+        channel.view("s-0000000000", team="team-b")
+    assert theirs.value.status == missing.value.status == 404
+    assert str(theirs.value).replace(sid, "ID") == str(missing.value).replace(
+        "s-0000000000", "ID")
+
+
+def test_queue_positions_and_an_eta_from_measured_episode_durations(
+        channel: Channel) -> None:
+    ids = []
+    for team in ("team-a", "team-b", "team-a"):
+        ids.append(_submission(channel, team))
+        _advance(channel, 1)
+    for sid in ids:  # pre-flights in the order received, queued in the order passed
+        work = channel.claim("r", "preflight")
+        assert work is not None and work.id == sid
+        channel.report(sid, Outcome(runner="r", kind="preflight", ok=True))
+        _advance(channel, 1)
+    views = [channel.view(s, team=None) for s in ids]
+    assert [v.position for v in views] == [1, 2, 3]
+    assert all(v.eta_s is None for v in views)  # nothing measured yet
+    # One scored run of 3 episodes in 30 s: 10 s an episode.
+    with channel.db.tx() as db:
+        db.execute("UPDATE submissions SET state='scored', wall_s=30, queued_at=NULL "
+                   "WHERE id=?", (ids[0],))
+    assert channel.view(ids[1], team=None).position == 1
+    assert channel.view(ids[1], team=None).eta_s == 0.0
+    assert channel.view(ids[2], team=None).eta_s == pytest.approx(30.0)
+
+
+def test_times_of_the_challenge_file() -> None:
+    start = datetime(2026, 5, 1, tzinfo=UTC)
+    assert parse_when("start", start) == start
+    assert parse_when("start+90m", start) == datetime(2026, 5, 1, 1, 30, tzinfo=UTC)
+    # 23:59 Anywhere on Earth (UTC-12) is 11:59 UTC the next day.
+    assert parse_when("2026-06-10 AoE", start) == datetime(2026, 6, 11, 11, 59, tzinfo=UTC)
+    assert parse_when("2026-06-01T00:00Z", start) == datetime(2026, 6, 1, tzinfo=UTC)
+    with pytest.raises(ValidationError, match="no time zone"):
+        _spec(phases=[{"name": "x", "closes": "2026-06-01T00:00",
+                       "splits": [{"name": "standard", "episodes": 1}]}])
+    with pytest.raises(ValidationError, match="team 'Team A'"):
+        _spec(teams=["Team A"])
+
+
+def test_a_closed_phase_names_the_next_window(tmp_path: Path) -> None:
+    spec = _spec(phases=[{"name": "later", "opens": "start+2h",
+                          "splits": [{"name": "standard", "episodes": 1}]}])
+    ch = Channel(spec, tmp_path / "d", clock=Clock(origin=T0, speed=0.0))
+    with pytest.raises(ChannelError, match="phase later opens 2026-05-01 14:00 UTC"):
+        ch.open_phase()
+    ch.clock.origin += 2 * 3600
+    assert ch.open_phase().name == "later"
+
+
+def test_image_references() -> None:
+    assert split_reference("teams/a/x@sha256:ab") == ("teams/a/x", "sha256:ab")
+    assert split_reference("teams/a/x:v2") == ("teams/a/x", "v2")
+    assert split_reference("teams/a/x") == ("teams/a/x", "latest")
+    assert split_reference("127.0.0.1:5000/teams/a/x") == ("127.0.0.1:5000/teams/a/x",
+                                                          "latest")

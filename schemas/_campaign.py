@@ -68,7 +68,7 @@ class CampaignSpec(_Spec):
 
     name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$")
     track: str
-    phase: Literal["local", "qualification", "hidden_validation", "final"] = "local"
+    phase: Literal["local", "testing", "qualification", "hidden_validation", "final"] = "local"
     splits: tuple[Split, ...] = Field(min_length=1)
     submissions: tuple[Submission, ...] = Field(min_length=1)
     limits: Limits = Limits()

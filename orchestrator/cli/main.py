@@ -18,6 +18,7 @@ from rich.console import Console
 from orchestrator._errors import UsageError
 from orchestrator.cli.audit import AUDIT_CODES, audit_cmd
 from orchestrator.cli.campaign import campaign_app, leaderboard_cmd, status_cmd
+from orchestrator.cli.channel import challenge_app, login_cmd, submissions_cmd, submit_cmd
 from orchestrator.cli.check_files import CHECK_FILES_CODES, check_files_cmd
 from orchestrator.cli.common import (
     EXIT_CODES_HELP,
@@ -44,12 +45,17 @@ images_app = typer.Typer(cls=OneLineErrors,
                          help="Build the base, agent-base and example images offline.")
 app.add_typer(images_app, name="images")
 app.add_typer(campaign_app, name="campaign")
+app.add_typer(challenge_app, name="challenge")
 # Top-level aliases of the commands an organizer types most.
 app.command("leaderboard", help="Alias of `eagc campaign leaderboard`.")(leaderboard_cmd)
 app.command("status", help="Alias of `eagc campaign status`.")(status_cmd)
 app.command("audit", epilog=AUDIT_CODES)(audit_cmd)
 app.command("check-files", epilog=CHECK_FILES_CODES)(check_files_cmd)
 app.command("report", epilog=REPORT_CODES)(report_cmd)
+# The submission channel, for teams (docs/channel.md).
+app.command("login")(login_cmd)
+app.command("submit")(submit_cmd)
+app.command("submissions")(submissions_cmd)
 
 
 def _print_version(value: bool) -> None:

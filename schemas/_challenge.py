@@ -71,6 +71,19 @@ class Preflight(_Model):
     memory_mb: int = Field(default=2048, ge=64)
 
 
+class Quota(_Model):
+    """What a team may use of a phase. The day is the UTC day; a submission is charged when
+    it is accepted and refunded when it fails for the platform's reasons, fails its
+    pre-flight, or an organizer cancels it."""
+
+    per_day: int = Field(default=5, ge=0, description="Submissions accepted per UTC day.")
+    concurrent: int = Field(default=1, ge=1, description="Submissions waiting or running "
+                            "at once.")
+    failed_preflights_per_day: int = Field(default=10, ge=1, description="Failed pre-flights "
+                                           "a day before submissions are refused until the "
+                                           "next day (stops abuse of the free check).")
+
+
 class ChallengePhase(_Model):
     """One window of the challenge and the campaign its submissions play."""
 
@@ -85,6 +98,7 @@ class ChallengePhase(_Model):
         default=None, description="'env:NAME' or 'file:/path'; None: the channel makes one "
         "for the phase in its data folder (private) the first time it starts.")
     preflight: Preflight = Preflight()
+    quota: Quota = Quota()
 
     _when = field_validator("opens", "closes")(
         classmethod(lambda cls, v: v if v is None else _check_when(v)))
@@ -203,7 +217,27 @@ class SubmissionView(_Model):
     final_high: float | None = None
     splits: tuple[SplitSummary, ...] = ()
     preflight: str = Field(default="", description="The pre-flight's outcome, one line.")
+    charged: bool = Field(default=True, description="Counts against the day's quota.")
     history: tuple[HistoryEntry, ...] = ()
+
+
+class QuotaView(_Model):
+    """``GET /api/v1/quota``: what a team has left of the open phase, and when it resets."""
+
+    team: str
+    phase: str
+    day: str = Field(description="The UTC day counted (YYYY-MM-DD).")
+    per_day: int
+    granted: int = Field(description="Extra submissions an organizer granted for the day.")
+    used: int = Field(description="Submissions charged today (refunds not counted).")
+    left: int
+    refunded: int = Field(description="Today's submissions refunded (not the team's fault, "
+                          "failed pre-flights, organizer cancels).")
+    concurrent: int
+    active: int = Field(description="Submissions waiting or running now.")
+    failed_preflights: int
+    failed_preflights_per_day: int
+    resets_at: datetime
 
 
 class Claim(_Model):

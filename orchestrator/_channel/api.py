@@ -10,6 +10,8 @@ as one that does not exist.
     GET  /api/v1/whoami                     the team, the open phase, the registry
     POST /api/v1/submissions                submit an image of the team's repository
     GET  /api/v1/submissions[/{id}]         the team's submissions
+    POST /api/v1/submissions/{id}/cancel    cancel one of the team's, waiting or running
+    GET  /api/v1/quota                      what the team has left today, when it resets
     GET  /api/v1/board                      the open phase's board (teams' latest scored)
     POST /api/v1/runner/claim               runner: take a pre-flight or a run
     GET  /api/v1/runner/campaign/{phase}    runner: the campaign a phase's submissions play
@@ -33,7 +35,7 @@ from fastapi.responses import JSONResponse, Response
 from orchestrator._channel.channel import Channel, utc_text
 from orchestrator._channel.db import ChannelError
 from orchestrator._channel.registry import RUNNER, grant
-from schemas import Claim, Outcome, Progress, SubmissionView, SubmitRequest, Work
+from schemas import Claim, Outcome, Progress, QuotaView, SubmissionView, SubmitRequest, Work
 
 log = logging.getLogger("eagc.channel")
 #: Largest request body accepted (a disclosure is the largest thing a team sends).
@@ -120,6 +122,15 @@ def create_app(channel: Channel) -> FastAPI:
     @app.get("/api/v1/submissions/{sid}")
     def submission(sid: str, who: Team) -> SubmissionView:
         return channel.view(sid, team=who)
+
+    @app.post("/api/v1/submissions/{sid}/cancel")
+    def cancel(sid: str, who: Team) -> SubmissionView:
+        channel.cancel(sid, team=who)
+        return channel.view(sid, team=who)
+
+    @app.get("/api/v1/quota")
+    def quota(who: Team) -> QuotaView:
+        return channel.quota(who)
 
     @app.get("/api/v1/board")
     def board(who: Team) -> dict[str, Any]:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import json
 import secrets
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +38,7 @@ from schemas import (
     EpisodeVerdict,
     Outcome,
     Progress,
+    QuotaView,
     SplitSummary,
     Submission,
     SubmissionState,
@@ -161,11 +162,78 @@ class Channel:
                                404)
         if reference.startswith(_DIGEST) and digest != reference:
             raise ChannelError(f"the registry resolves {reference} to {digest}", 409)
+        return self.accept(team, phase, repository, digest, req)
+
+    def accept(self, team: str, phase: ChallengePhase, repository: str, digest: str,
+               req: SubmitRequest) -> SubmissionView:
+        """Charges ``team`` one submission of ``phase`` (refusing it over the quota) and
+        queues its pre-flight."""
         planned = sum(s.episodes for s in phase.splits)
         sid = self.db.create(team=team, phase=phase.name, repository=repository,
                              digest=digest, note=req.note, disclosure=req.disclosure,
-                             planned=planned)
+                             planned=planned, check=lambda db: self._may_submit(db, team, phase))
         return self.view(sid, team=team)
+
+    # ------------------------------------------------------------------ quotas
+    def _counts(self, db: Any, team: str, phase: str, day: str) -> dict[str, int]:
+        def one(sql: str, *args: Any) -> int:
+            return int(db.execute(sql, args).fetchone()[0] or 0)
+
+        base = "SELECT COUNT(*) FROM submissions WHERE team=? AND phase=?"
+        return {
+            "used": one(base + " AND day=? AND charged=1", team, phase, day),
+            "refunded": one(base + " AND day=? AND charged=0 AND rerun_of IS NULL",
+                            team, phase, day),
+            "active": one(base + " AND state IN (?, ?, ?, ?)", team, phase,
+                          *(str(s) for s in (S.RECEIVED, S.PREFLIGHT, S.QUEUED, S.RUNNING))),
+            "failed_preflights": one(base + " AND day=? AND preflight LIKE 'failed:%'",
+                                     team, phase, day),
+            "granted": one("SELECT SUM(n) FROM grants WHERE team=? AND phase=? AND day=?",
+                           team, phase, day),
+        }
+
+    def resets_at(self) -> datetime:
+        """The next 00:00 UTC, when the day's quota starts again."""
+        now = self.clock.utc()
+        return datetime(now.year, now.month, now.day, tzinfo=UTC) + timedelta(days=1)
+
+    def quota(self, team: str) -> QuotaView:
+        phase = self.open_phase()
+        day = self.db.day()
+        c = self._counts(self.db.db, team, phase.name, day)
+        q = phase.quota
+        return QuotaView(team=team, phase=phase.name, day=day, per_day=q.per_day,
+                         granted=c["granted"], used=c["used"],
+                         left=max(q.per_day + c["granted"] - c["used"], 0),
+                         refunded=c["refunded"], concurrent=q.concurrent, active=c["active"],
+                         failed_preflights=c["failed_preflights"],
+                         failed_preflights_per_day=q.failed_preflights_per_day,
+                         resets_at=self.resets_at())
+
+    def _may_submit(self, db: Any, team: str, phase: ChallengePhase) -> None:
+        """ChannelError (429) naming the limit and when it resets, or nothing."""
+        paused = self.db.meta("paused")
+        if paused:
+            raise ChannelError(f"the organizers paused the channel: {paused}", 503)
+        day = self.db.day()
+        c = self._counts(db, team, phase.name, day)
+        q = phase.quota
+        reset = self.resets_at()
+        wait = _duration((reset - self.clock.utc()).total_seconds())
+        when = f"{reset:%Y-%m-%d %H:%M} UTC (in {wait})"
+        if c["failed_preflights"] >= q.failed_preflights_per_day:
+            raise ChannelError(f"quota: {c['failed_preflights']} failed pre-flights today, the "
+                               f"phase's cap; submissions are accepted again from {when}. "
+                               "`eagc test IMAGE` checks an image locally, for free", 429)
+        if c["active"] >= q.concurrent:
+            raise ChannelError(f"quota: {c['active']} of your submissions wait or run, the "
+                               f"phase allows {q.concurrent} at a time: wait for one to end "
+                               "or cancel it (`eagc submissions ID --cancel`)", 429)
+        allowed = q.per_day + c["granted"]
+        if c["used"] >= allowed:
+            raise ChannelError(f"quota: you have used your {allowed} submission"
+                               f"{'s' if allowed != 1 else ''} of {day} (UTC); the next is "
+                               f"accepted from {when}", 429)
 
     def row_for(self, sid: str, team: str | None) -> Row:
         """A submission's row; one of another team's is 'not found', as a missing one."""
@@ -198,7 +266,8 @@ class Channel:
             episodes_planned=row.episodes_planned, final=result.get("final"),
             final_low=result.get("final_low"), final_high=result.get("final_high"),
             splits=tuple(SplitSummary.model_validate(s) for s in result.get("splits", ())),
-            preflight=row.preflight, history=tuple(self.db.history(row.id)))
+            preflight=row.preflight, charged=row.charged,
+            history=tuple(self.db.history(row.id)))
 
     def submissions(self, team: str | None) -> list[SubmissionView]:
         return [self.view(r.id, team=team) for r in self.db.rows(team=team)]
@@ -223,6 +292,8 @@ class Channel:
     def claim(self, runner: str, kind: str) -> Work | None:
         """The oldest submission waiting for ``kind`` of work, leased to ``runner``."""
         self.expire_leases()
+        if self.db.meta("paused"):
+            return None
         registry = self.registry_address()  # before anything is leased
         waiting, taken = ((S.RECEIVED, S.PREFLIGHT) if kind == "preflight"
                           else (S.QUEUED, S.RUNNING))
@@ -271,7 +342,8 @@ class Channel:
                 if tries > phase.retries:
                     self.db.move(db, sid, S.FAILED, f"infrastructure: {o.reason} (after "
                                  f"{phase.retries} retr{'y' if phase.retries == 1 else 'ies'};"
-                                 " not the team's fault)", infra_retries=tries, **free)
+                                 " not the team's fault, refunded)", infra_retries=tries,
+                                 charged=0, **free)
                 else:
                     back = S.RECEIVED if o.kind == "preflight" else S.QUEUED
                     self.db.move(db, sid, back, "waiting again after an infrastructure "
@@ -286,7 +358,9 @@ class Channel:
                                  **free)
                 else:
                     self.db.move(db, sid, S.FAILED, f"pre-flight: {o.reason}",
-                                 preflight=f"failed: {o.reason}", **free)
+                                 detail=f"pre-flight: {o.reason} (refunded: a pre-flight "
+                                 "costs nothing)", preflight=f"failed: {o.reason}", charged=0,
+                                 **free)
             else:
                 result = self.summarize(row, phase, o.results)
                 self.db.move(db, sid, S.SCORED, "scored",
@@ -294,6 +368,83 @@ class Channel:
                              result=json.dumps(result), wall_s=o.wall_s,
                              episodes_done=len(o.results), **free)
         return self.view(sid, team=None)
+
+    # ------------------------------------------------------------------ cancel, organizer
+    def cancel(self, sid: str, *, team: str | None, who: str = "", why: str = "") -> None:
+        """A team cancels its own waiting or running submission (its slot is free at once;
+        the day's charge stays); an organizer (``team`` None) cancels any, free."""
+        row = self.row_for(sid, team)
+        if row.state.final:
+            raise ChannelError(f"{sid} is {row.state} already: nothing to cancel", 409)
+        with self.db.tx() as db:
+            if team is None:
+                self.db.record_action(db, who, "cancel", sid, why)
+                self.db.move(db, sid, S.CANCELLED, f"cancelled by the organizers ({who}): "
+                             f"{why}; refunded", charged=0, lease_owner=None,
+                             lease_until=None)
+            else:
+                self.db.move(db, sid, S.CANCELLED, "cancelled by the team",
+                             lease_owner=None, lease_until=None)
+
+    def rerun(self, sid: str, *, who: str, why: str) -> str:
+        """An organizer's free rerun: a new submission of the same image, from its
+        pre-flight, with the old one's history pointing to it."""
+        row = self.row_for(sid, None)
+        new = self.db.create(team=row.team, phase=row.phase, repository=row.repository,
+                             digest=row.digest, note=f"rerun of {sid}: {why}",
+                             disclosure=row.disclosure, planned=row.episodes_planned,
+                             charged=False, rerun_of=sid)
+        with self.db.tx() as db:
+            self.db.record_action(db, who, "rerun", sid, why)
+            self.db._history(db, sid, row.state, f"rerun by the organizers ({who}) as {new}: "
+                             f"{why}")
+            self.db._history(db, new, S.RECEIVED, f"rerun of {sid} by the organizers "
+                             f"({who}): {why}; free")
+        return new
+
+    def refund_window(self, start: float, end: float, *, who: str, why: str) -> list[str]:
+        """Refunds every charged submission that ended (scored or failed) inside
+        ``[start, end]``, an incident's window: the teams get their quota back (a rerun is
+        ``rerun``, free too)."""
+        with self.db.tx() as db:
+            rows = db.execute(
+                "SELECT id, state FROM submissions WHERE state IN (?, ?) AND charged=1 AND "
+                "updated_at BETWEEN ? AND ? ORDER BY updated_at, id",
+                (str(S.FAILED), str(S.SCORED), start, end)).fetchall()
+            ids = [sid for sid, _ in rows]
+            for sid, state in rows:
+                db.execute("UPDATE submissions SET charged=0 WHERE id=?", (sid,))
+                self.db._history(db, sid, SubmissionState(state),
+                                 f"refunded by the organizers ({who}): {why}")
+            self.db.record_action(db, who, "refund", f"{len(ids)} submissions", why)
+        return ids
+
+    def grant(self, team: str, n: int, *, who: str, why: str) -> None:
+        """``n`` more submissions for ``team`` today, in the open phase."""
+        if not self.db.has_team(team):
+            raise ChannelError(f"no team {team!r}", 404)
+        phase = self.open_phase()
+        with self.db.tx() as db:
+            db.execute("INSERT INTO grants VALUES (?, ?, ?, ?)",
+                       (team, phase.name, self.db.day(), n))
+            self.db.record_action(db, who, "grant", team, f"{n} more today: {why}")
+
+    def pause(self, paused: bool, *, who: str, why: str) -> None:
+        """Pauses (no submission accepted, no work handed out) or resumes the channel."""
+        with self.db.tx() as db:
+            if paused:
+                db.execute("INSERT OR REPLACE INTO meta VALUES ('paused', ?)",
+                           (f"{why} ({who}, {self.clock.utc():%Y-%m-%d %H:%M} UTC)",))
+            else:
+                db.execute("DELETE FROM meta WHERE key='paused'")
+            self.db.record_action(db, who, "pause" if paused else "resume", "channel", why)
+
+    def disable(self, team: str, disabled: bool, *, who: str, why: str) -> None:
+        if not self.db.has_team(team):
+            raise ChannelError(f"no team {team!r}", 404)
+        with self.db.tx() as db:
+            db.execute("UPDATE teams SET disabled=? WHERE name=?", (int(disabled), team))
+            self.db.record_action(db, who, "disable" if disabled else "enable", team, why)
 
     # ------------------------------------------------------------------ scores
     def store(self) -> Any:
@@ -370,6 +521,11 @@ class Channel:
 def _verdict(index: int, result: EpisodeResult) -> dict[str, Any]:
     return EpisodeVerdict(index=index, status=result.status.value,
                           failure_kind=result.status.failure_kind).model_dump()
+
+
+def _duration(seconds: float) -> str:
+    h, m = divmod(int(max(seconds, 0)) // 60, 60)
+    return f"{h} h {m} min" if h else f"{m} min"
 
 
 def _plus(db: Any, sid: str, column: str) -> int:

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from orchestrator._channel.db import ChannelError
-from schemas import SubmissionView, SubmitRequest
+from schemas import QuotaView, SubmissionView, SubmitRequest
 
 ENV = {"url": "EAGC_CHANNEL_URL", "team": "EAGC_CHANNEL_TEAM", "token": "EAGC_CHANNEL_TOKEN"}
 
@@ -103,6 +103,13 @@ class ChannelClient:
 
     def submissions(self) -> list[SubmissionView]:
         return [SubmissionView.model_validate(s) for s in self.call("GET", "/api/v1/submissions")]
+
+    def cancel(self, sid: str) -> SubmissionView:
+        return SubmissionView.model_validate(
+            self.call("POST", f"/api/v1/submissions/{sid}/cancel"))
+
+    def quota(self) -> QuotaView:
+        return QuotaView.model_validate(self.call("GET", "/api/v1/quota"))
 
     def submission(self, sid: str) -> SubmissionView:
         return SubmissionView.model_validate(self.call("GET", f"/api/v1/submissions/{sid}"))

@@ -43,11 +43,17 @@ CREATE TABLE IF NOT EXISTS submissions (
     lease_owner TEXT, lease_until REAL, infra_retries INTEGER NOT NULL DEFAULT 0,
     lease_expiries INTEGER NOT NULL DEFAULT 0,
     episodes_done INTEGER NOT NULL DEFAULT 0, episodes_planned INTEGER NOT NULL DEFAULT 0,
-    preflight TEXT NOT NULL DEFAULT '', wall_s REAL, result TEXT);
+    preflight TEXT NOT NULL DEFAULT '', wall_s REAL, result TEXT,
+    charged INTEGER NOT NULL DEFAULT 1, day TEXT NOT NULL, rerun_of TEXT);
 CREATE INDEX IF NOT EXISTS submissions_state ON submissions (state, queued_at);
 CREATE TABLE IF NOT EXISTS history (
     submission TEXT NOT NULL, at REAL NOT NULL, state TEXT NOT NULL, detail TEXT NOT NULL);
 CREATE INDEX IF NOT EXISTS history_submission ON history (submission, at);
+CREATE TABLE IF NOT EXISTS grants (
+    team TEXT NOT NULL, phase TEXT NOT NULL, day TEXT NOT NULL, n INTEGER NOT NULL);
+CREATE TABLE IF NOT EXISTS actions (
+    at REAL NOT NULL, who TEXT NOT NULL, action TEXT NOT NULL, target TEXT NOT NULL,
+    why TEXT NOT NULL);
 """
 
 
@@ -116,6 +122,9 @@ class Row:
     preflight: str
     wall_s: float | None
     result: dict[str, Any] | None
+    charged: bool
+    day: str
+    rerun_of: str | None
 
 
 class ChannelDB:
@@ -212,18 +221,40 @@ class ChannelDB:
 
     # ------------------------------------------------------------------ submissions
     def create(self, *, team: str, phase: str, repository: str, digest: str, note: str,
-               disclosure: str | None, planned: int) -> str:
+               disclosure: str | None, planned: int,
+               check: Any = None, charged: bool = True, rerun_of: str | None = None,
+               state: SubmissionState = S.RECEIVED) -> str:
+        """A new submission; ``check(db)`` runs first in the same transaction (the quota:
+        two submits at once cannot both take the last one)."""
         now = self.clock.now()
         sid = f"s-{secrets.token_hex(5)}"
         with self.tx() as db:
+            if check is not None:
+                check(db)
             db.execute(
                 "INSERT INTO submissions (id, team, phase, repository, digest, note, "
-                "disclosure, state, reason, created_at, updated_at, episodes_planned) "
-                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                (sid, team, phase, repository, digest, note, disclosure, S.RECEIVED,
-                 "waiting for its pre-flight", now, now, planned))
-            self._history(db, sid, S.RECEIVED, f"{repository}@{digest}")
+                "disclosure, state, reason, created_at, updated_at, episodes_planned, "
+                "charged, day, rerun_of, queued_at) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (sid, team, phase, repository, digest, note, disclosure, str(state),
+                 "waiting for its pre-flight" if state == S.RECEIVED else "waiting for a "
+                 "runner", now, now, planned, int(charged), self.day(now), rerun_of,
+                 now if state == S.QUEUED else None))
+            self._history(db, sid, state, f"{repository}@{digest}")
         return sid
+
+    def day(self, t: float | None = None) -> str:
+        """The UTC day of ``t`` (now), as quotas count it."""
+        return self.clock.utc(t).strftime("%Y-%m-%d")
+
+    def record_action(self, db: sqlite3.Connection, who: str, action: str, target: str,
+                      why: str) -> None:
+        """An organizer's action: who, when, what, on what, why (``eagc challenge``)."""
+        db.execute("INSERT INTO actions VALUES (?, ?, ?, ?, ?)",
+                   (self.clock.now(), who, action, target, why))
+
+    def actions(self) -> list[tuple[float, str, str, str, str]]:
+        return list(self.db.execute("SELECT * FROM actions ORDER BY at, rowid"))
 
     def _history(self, db: sqlite3.Connection, sid: str, state: SubmissionState,
                  detail: str) -> None:
@@ -281,4 +312,5 @@ def _row(r: tuple[Any, ...]) -> Row:
     values = list(r)
     values[8] = SubmissionState(values[8])
     values[21] = json.loads(values[21]) if values[21] else None
+    values[22] = bool(values[22])
     return Row(*values)

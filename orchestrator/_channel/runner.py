@@ -21,6 +21,7 @@ waits again.
 
 from __future__ import annotations
 
+import _thread
 import json
 import logging
 import os
@@ -105,12 +106,22 @@ class Runner:
                 outcome = self.preflight(work)
             else:
                 outcome = self.run(work, beat)
+        except KeyboardInterrupt:
+            if not beat.lost.is_set():
+                raise
+            self.say(f"{work.id} ({work.team}): {work.kind} stopped: the submission was "
+                     "cancelled or its lease taken back")
+            return
         except Exception as e:  # noqa: BLE001 - anything here is the platform's failure
             log.exception("%s of %s", work.kind, work.id)
             outcome = Outcome(runner=self.name, kind=work.kind, ok=False, infrastructure=True,
                               reason=f"{type(e).__name__}: {e}"[:500])
         finally:
             beat.stop()
+        if beat.lost.is_set():
+            self.say(f"{work.id} ({work.team}): its lease was taken back (cancelled, or it "
+                     "went back in line); the outcome is not reported")
+            return
         outcome = outcome.model_copy(update={"wall_s": time.monotonic() - started})
         try:
             self.client.call("POST", f"/api/v1/runner/{work.id}/report",
@@ -268,6 +279,8 @@ class _Heartbeat:
                              image_id=self.image_id).model_dump(mode="json"))
             except ChannelError as e:
                 log.warning("heartbeat of %s: %s", self.work.id, e)
-                if e.status == 409:
+                if e.status == 409:  # cancelled, or its lease expired: stop the run
                     self.lost.set()
+                    if self.work.kind == "run":
+                        _thread.interrupt_main()
                     return

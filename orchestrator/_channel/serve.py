@@ -72,6 +72,17 @@ def open_db(data: Path) -> ChannelDB:
     return ChannelDB(data / "channel.sqlite")
 
 
+def open_channel(data: Path) -> Channel:
+    """The channel over ``data`` with the challenge file it last served (the organizer's
+    commands, serving or not)."""
+    db = open_db(data)
+    text = db.meta("spec")
+    db.close()
+    if text is None:
+        raise ChannelError(f"{data} holds no challenge yet: serve it once")
+    return Channel(ChallengeSpec.model_validate_json(text), data)
+
+
 def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int = 0,
           registry_port: int = 0, workers: int = 1, address: str | None = None,
           runner: bool = True, clock: Clock | None = None, say: Say = print) -> None:
@@ -84,6 +95,7 @@ def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int
     port = port or free_port(host)
     channel = Channel(spec, data, clock=clock)
     channel.db.set_meta("token_days", str(spec.token_days))
+    channel.db.set_meta("spec", spec.model_dump_json())  # for `eagc challenge` off-line
     registry = RegistryProcess(data / "registry", channel.keys,
                                realm=f"http://{host}:{port}/auth/token", host=host,
                                port=registry_port)

@@ -193,12 +193,36 @@ def submissions_cmd(
                                          "cancelled.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="JSON (one object for one "
                                           "submission).")] = False,
+    quota: Annotated[bool, typer.Option("--quota", help="What you have left today, and "
+                                        "when it resets.")] = False,
+    cancel: Annotated[bool, typer.Option("--cancel", help="Cancel submission ID (waiting "
+                                         "or running); its slot is free at once.")] = False,
 ) -> None:
-    """Your team's submissions: state, queue position, ETA, scores."""
+    """Your team's submissions: state, queue position, ETA, scores; --quota, --cancel."""
     from orchestrator._channel.client import ChannelClient, load_login
+    from orchestrator._errors import UsageError
 
     login = load_login()
     client = ChannelClient(login.url, login.token)
+    if quota:
+        q = client.quota()
+        if as_json:
+            print(q.model_dump_json())
+            return
+        out.print(f"team {q.team}, phase {q.phase}, {q.day} (UTC): {q.left} of "
+                  f"{q.per_day + q.granted} submissions left"
+                  + (f" ({q.granted} granted)" if q.granted else "")
+                  + f"; {q.refunded} refunded", highlight=False)
+        out.print(f"  resets {q.resets_at:%Y-%m-%d %H:%M} UTC; {q.active} of {q.concurrent} "
+                  f"waiting or running; {q.failed_preflights} of "
+                  f"{q.failed_preflights_per_day} failed pre-flights", highlight=False)
+        return
+    if cancel:
+        if sid is None:
+            raise UsageError("--cancel needs the submission's ID")
+        view = client.cancel(sid)
+        out.print(f"{view.id} cancelled", highlight=False)
+        return
     if sid is None:
         views = client.submissions()
         if as_json:
@@ -265,3 +289,102 @@ def _details(v: SubmissionView) -> None:
     for h in v.history:
         detail = _short(h.detail) if h.state == SubmissionState.RECEIVED else h.detail
         out.print(f"  {h.at:%m-%d %H:%M:%S}  {h.state.value:<9} {detail}", highlight=False)
+
+
+# ---------------------------------------------------------------------- the organizer's hand
+WhyOpt = Annotated[str, typer.Option("--why", help="Why (kept with who and when, and shown "
+                                     "in the submission's history).")]
+
+
+def _who() -> str:
+    import getpass
+
+    return os.environ.get("EAGC_ORGANIZER") or getpass.getuser()
+
+
+@challenge_app.command("queue")
+def queue_cmd(data: DataOpt = DEFAULT_DATA) -> None:
+    """Every submission waiting or running, in the order they will run."""
+    from orchestrator._channel.serve import open_channel
+
+    ch = open_channel(data)
+    active = [r for r in ch.db.rows() if not r.state.final]
+    if not active:
+        out.print("nothing waits or runs", highlight=False)
+    for r in sorted(active, key=lambda r: (r.state != SubmissionState.RUNNING,
+                                           r.queued_at or r.created_at)):
+        v = ch.view(r.id, team=None)
+        out.print(f"{v.team:<12} {_line(v)}", highlight=False)
+    if ch.db.meta("paused"):
+        out.print(f"PAUSED: {ch.db.meta('paused')}", highlight=False)
+
+
+@challenge_app.command("cancel")
+def cancel_cmd(sid: Annotated[str, typer.Argument(help="The submission.")], why: WhyOpt,
+               data: DataOpt = DEFAULT_DATA) -> None:
+    """Cancel a submission (free: its charge is refunded)."""
+    from orchestrator._channel.serve import open_channel
+
+    open_channel(data).cancel(sid, team=None, who=_who(), why=why)
+    out.print(f"{sid} cancelled and refunded", highlight=False)
+
+
+@challenge_app.command("rerun")
+def rerun_cmd(sid: Annotated[str, typer.Argument(help="The submission.")], why: WhyOpt,
+              data: DataOpt = DEFAULT_DATA) -> None:
+    """Run a submission's image again, as a new free submission."""
+    from orchestrator._channel.serve import open_channel
+
+    new = open_channel(data).rerun(sid, who=_who(), why=why)
+    out.print(f"{sid} runs again as {new} (free)", highlight=False)
+
+
+@challenge_app.command("refund")
+def refund_cmd(
+    since: Annotated[str, typer.Option("--from", help="Start of the incident (UTC, ISO).")],
+    until: Annotated[str, typer.Option("--to", help="Its end (UTC, ISO).")],
+    why: WhyOpt, data: DataOpt = DEFAULT_DATA,
+) -> None:
+    """Refund every submission that failed inside an incident window."""
+    from orchestrator._channel.serve import open_channel
+    from schemas import parse_when
+
+    ch = open_channel(data)
+    start, end = (parse_when(x, ch.started).timestamp() for x in (since, until))
+    ids = ch.refund_window(start, end, who=_who(), why=why)
+    out.print(f"refunded {len(ids)} submission{'s' if len(ids) != 1 else ''}"
+              + (f": {', '.join(ids)}" if ids else ""), highlight=False)
+
+
+@challenge_app.command("grant")
+def grant_cmd(team: Annotated[str, typer.Argument(help="The team.")],
+              n: Annotated[int, typer.Argument(help="Extra submissions today.", min=1)],
+              why: WhyOpt, data: DataOpt = DEFAULT_DATA) -> None:
+    """Grant a team more submissions today."""
+    from orchestrator._channel.serve import open_channel
+
+    open_channel(data).grant(team, n, who=_who(), why=why)
+    out.print(f"team {team}: {n} more submission{'s' if n != 1 else ''} today",
+              highlight=False)
+
+
+@challenge_app.command("pause")
+def pause_cmd(why: WhyOpt, data: DataOpt = DEFAULT_DATA,
+              resume: Annotated[bool, typer.Option(help="Resume instead.")] = False) -> None:
+    """Pause the channel (no submission accepted, no work handed out), or --resume it."""
+    from orchestrator._channel.serve import open_channel
+
+    open_channel(data).pause(not resume, who=_who(), why=why)
+    out.print("resumed" if resume else "paused: submissions are refused with your reason",
+              highlight=False)
+
+
+@challenge_app.command("disable")
+def disable_cmd(team: Annotated[str, typer.Argument(help="The team.")], why: WhyOpt,
+                data: DataOpt = DEFAULT_DATA,
+                enable: Annotated[bool, typer.Option(help="Enable it again.")] = False) -> None:
+    """Disable a team (its token stops working), or --enable it again."""
+    from orchestrator._channel.serve import open_channel
+
+    open_channel(data).disable(team, not enable, who=_who(), why=why)
+    out.print(f"team {team} {'enabled' if enable else 'disabled'}", highlight=False)

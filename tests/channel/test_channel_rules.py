@@ -14,7 +14,7 @@ from pydantic import ValidationError
 from orchestrator._channel.channel import Channel, split_reference
 from orchestrator._channel.db import ChannelError, Clock
 from orchestrator._channel.registry import RegistryProcess
-from schemas import ChallengeSpec, Outcome, Progress, SubmissionState, parse_when
+from schemas import ChallengeSpec, Outcome, Progress, SubmissionState, SubmitRequest, parse_when
 
 S = SubmissionState
 T0 = datetime(2026, 5, 1, 12, 0, tzinfo=UTC).timestamp()
@@ -187,3 +187,104 @@ def test_image_references() -> None:
     assert split_reference("teams/a/x") == ("teams/a/x", "latest")
     assert split_reference("127.0.0.1:5000/teams/a/x") == ("127.0.0.1:5000/teams/a/x",
                                                           "latest")
+
+
+def _accept(channel: Channel, team: str = "team-a") -> str:
+    return channel.accept(team, channel.open_phase(), f"teams/{team}/agent",
+                          "sha256:" + "b" * 64, SubmitRequest(image="x")).id
+
+
+def _quota_channel(tmp_path: Path, **quota: int) -> Channel:
+    spec = _spec(phases=[{"name": "open", "quota": quota, "retries": 0,
+                          "splits": [{"name": "standard", "episodes": 1}]}])
+    ch = Channel(spec, tmp_path / "q", clock=Clock(origin=T0, speed=0.0))
+    ch.add_spec_teams()
+    ch.registry = RegistryProcess(tmp_path / "reg", ch.keys, realm="http://unused", port=5999)
+    return ch
+
+
+def _finish(ch: Channel, sid: str, **outcome: object) -> None:
+    work = ch.claim("r", "preflight")
+    assert work is not None and work.id == sid
+    ch.report(sid, Outcome(runner="r", kind="preflight", **outcome))  # type: ignore[arg-type]
+
+
+def test_the_days_quota_refuses_with_its_reset_time_and_refunds_what_was_not_the_team(
+        tmp_path: Path) -> None:
+    ch = _quota_channel(tmp_path, per_day=2, concurrent=5)
+    first = _accept(ch)
+    _finish(ch, first, ok=True)
+    ch.claim("r", "run")
+    ch.report(first, Outcome(runner="r", kind="run", ok=False, infrastructure=True,
+                             reason="the node died"))  # retries 0: failed, refunded
+    assert not ch.db.get(first).charged  # type: ignore[union-attr]
+    second = _accept(ch)
+    _finish(ch, second, ok=False, reason="the container starts: no such file")
+    assert "refunded" in ch.view(second, team="team-a").history[-1].detail
+    _accept(ch)
+    _accept(ch)  # two charged now: the refunds gave two back
+    q = ch.quota("team-a")
+    assert (q.used, q.left, q.refunded, q.failed_preflights) == (2, 0, 2, 1)
+    with pytest.raises(ChannelError) as e:
+        _accept(ch)
+    assert e.value.status == 429
+    assert "your 2 submissions of 2026-05-01 (UTC)" in str(e.value)
+    assert "accepted from 2026-05-02 00:00 UTC (in 12 h 0 min)" in str(e.value)
+    assert ch.quota("team-b").left == 2  # per team
+    ch.grant("team-a", 1, who="org", why="our registry was down an hour")
+    _accept(ch)
+    _advance(ch, 12 * 3600)  # the next UTC day
+    assert ch.quota("team-a").left == 2
+
+
+def test_concurrency_and_a_teams_own_cancel_frees_its_slot_at_once(tmp_path: Path) -> None:
+    ch = _quota_channel(tmp_path, per_day=10, concurrent=1)
+    sid = _accept(ch)
+    with pytest.raises(ChannelError, match="1 of your submissions wait or run"):
+        _accept(ch)
+    with pytest.raises(ChannelError) as theirs:
+        ch.cancel(sid, team="team-b")
+    assert theirs.value.status == 404
+    ch.cancel(sid, team="team-a")
+    assert ch.view(sid, team="team-a").state == S.CANCELLED
+    assert ch.db.get(sid).charged  # type: ignore[union-attr]  # the team's own choice
+    _accept(ch)
+
+
+def test_failed_preflights_are_capped_a_day(tmp_path: Path) -> None:
+    ch = _quota_channel(tmp_path, per_day=10, failed_preflights_per_day=2)
+    for _ in range(2):
+        _finish(ch, _accept(ch), ok=False, reason="bad")
+    with pytest.raises(ChannelError, match="2 failed pre-flights today"):
+        _accept(ch)
+
+
+def test_the_organizers_hand_is_recorded_with_who_when_and_why(tmp_path: Path) -> None:
+    ch = _quota_channel(tmp_path, per_day=10, concurrent=10)
+    a, b = _accept(ch), _accept(ch, "team-b")
+    _advance(ch, 1)  # the rerun below comes after b
+    ch.cancel(a, team=None, who="alice", why="wrong phase")
+    assert not ch.db.get(a).charged  # type: ignore[union-attr]
+    assert "cancelled by the organizers (alice): wrong phase" in ch.view(
+        a, team="team-a").history[-1].detail
+    again = ch.rerun(a, who="alice", why="the node was bad")
+    rerun = ch.view(again, team="team-a")
+    assert rerun.state == S.RECEIVED and not rerun.charged
+    assert f"rerun by the organizers (alice) as {again}" in ch.view(
+        a, team="team-a").history[-1].detail
+    ch.pause(True, who="bob", why="registry maintenance")
+    with pytest.raises(ChannelError, match="paused the channel: registry maintenance"):
+        _accept(ch)
+    assert ch.claim("r", "preflight") is None  # no work handed out while paused
+    ch.pause(False, who="bob", why="done")
+    ch.disable("team-b", True, who="bob", why="shared a token")
+    token, _ = ch.db.new_token("team-b", 1)
+    assert "disabled" in ch.db.check_token(token).problem
+    _finish(ch, b, ok=True)
+    with ch.db.tx() as db:  # its run scored (what an incident's window may refund)
+        db.execute("UPDATE submissions SET state='scored' WHERE id=?", (b,))
+    refunded = ch.refund_window(T0 - 1, T0 + 10, who="carol", why="the engine crashed")
+    assert refunded == [b]
+    assert [(w, act) for _, w, act, _, _ in ch.db.actions()] == [
+        ("alice", "cancel"), ("alice", "rerun"), ("bob", "pause"), ("bob", "resume"),
+        ("bob", "disable"), ("carol", "refund")]

@@ -23,8 +23,9 @@ under way or the next one raises ``HostLost`` at once. A reply that does not com
 
 ``GymEnv`` (``GymEnv(RemoteEnv(), ...)``, or ``GymEnv()`` alone) offers the same episode
 as a ``gymnasium.Env``-shaped object, for a policy written against the offline
-environments (``simhost.client._gym_client``; loaded on first use, so that importing this module
-never imports gymnasium).
+environments (``simhost.client._gym_client``; loaded on first use, so that importing this
+module never imports gymnasium); ``OFFLINE_DTYPES`` are the offline dtypes it restores
+where the wire has none.
 """
 
 from __future__ import annotations
@@ -35,10 +36,17 @@ from simhost.client._outputs import OutputFileError, OutputFiles
 from simhost.client._remote import DEFAULT_TIMEOUT_S, HostError, HostLost, RemoteEnv, TimeStep
 
 if TYPE_CHECKING:
-    from simhost.client._gym_client import GymClientError, GymEnv, StageEnd, StageRule
+    from simhost.client._gym_client import (
+        OFFLINE_DTYPES,
+        GymClientError,
+        GymEnv,
+        StageEnd,
+        StageRule,
+    )
 
 __all__ = [
     "DEFAULT_TIMEOUT_S",
+    "OFFLINE_DTYPES",
     "GymClientError",
     "GymEnv",
     "HostError",
@@ -51,7 +59,7 @@ __all__ = [
     "TimeStep",
 ]
 
-_GYM_EXPORTS = ("GymClientError", "GymEnv", "StageEnd", "StageRule")
+_GYM_EXPORTS = ("OFFLINE_DTYPES", "GymClientError", "GymEnv", "StageEnd", "StageRule")
 
 
 def __getattr__(name: str) -> Any:

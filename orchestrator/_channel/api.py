@@ -19,6 +19,7 @@ as one that does not exist.
     POST /api/v1/runner/{id}/heartbeat      runner: renew the lease, report progress
     POST /api/v1/runner/{id}/report         runner: the pre-flight's or the run's outcome
     GET  /auth/token                        Docker registry token endpoint
+    GET  /login, /team, …                   the team's pages (``pages``)
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from fastapi import Depends, FastAPI, Header, HTTPException, Query, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, Response
 
+from orchestrator._channel import pages
 from orchestrator._channel.channel import Channel, utc_text
 from orchestrator._channel.db import ChannelError
 from orchestrator._channel.registry import RUNNER, grant
@@ -174,6 +176,7 @@ def create_app(channel: Channel) -> FastAPI:
         who = _basic(request.headers.get("authorization"), channel)
         return channel.keys.token(who, grant(who, scope or []))
 
+    pages.mount(app)
     return app
 
 

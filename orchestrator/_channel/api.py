@@ -20,6 +20,7 @@ as one that does not exist.
     POST /api/v1/runner/{id}/report         runner: the pre-flight's or the run's outcome
     GET  /auth/token                        Docker registry token endpoint
     GET  /login, /team, …                   the team's pages (``pages``)
+    GET  /metrics                           Prometheus (orchestrator/_channel/metrics.py)
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from fastapi.responses import JSONResponse, Response
 from orchestrator._channel import pages
 from orchestrator._channel.channel import Channel, utc_text
 from orchestrator._channel.db import ChannelError
+from orchestrator._channel.metrics import ChannelMetrics
 from orchestrator._channel.registry import RUNNER, grant
 from schemas import Claim, Outcome, Progress, QuotaView, SubmissionView, SubmitRequest, Work
 
@@ -76,6 +78,12 @@ def create_app(channel: Channel) -> FastAPI:
     app = FastAPI(title=f"eagc channel: {channel.spec.name}", version="1",
                   docs_url=None, redoc_url=None)
     app.state.channel = channel
+    metrics = ChannelMetrics(channel)
+
+    @app.get("/metrics")
+    def prometheus() -> Response:
+        return Response(metrics.exposition(),
+                        media_type="text/plain; version=0.0.4; charset=utf-8")
 
     @app.exception_handler(ChannelError)
     async def channel_error(_: Request, e: ChannelError) -> JSONResponse:
@@ -168,7 +176,9 @@ def create_app(channel: Channel) -> FastAPI:
 
     @app.post("/api/v1/runner/{sid}/report")
     def report(sid: str, o: Outcome, _: Runner) -> SubmissionView:
-        return channel.report(sid, o)
+        view = channel.report(sid, o)
+        metrics.observe(o.kind, o.wall_s)
+        return view
 
     @app.get("/auth/token")
     def token(request: Request, service: str = "", account: str = "",

@@ -23,7 +23,7 @@ import signal
 import socket
 import subprocess
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
@@ -134,6 +134,18 @@ def grant(who: str, scopes: Sequence[str]) -> list[dict[str, Any]]:
     return out
 
 
+def die_with_parent(sig: int) -> Callable[[], None]:
+    """A ``preexec_fn`` that has the child sent ``sig`` when its parent dies (Linux's
+    PR_SET_PDEATHSIG): a channel killed with -9 leaves no registry or runner behind."""
+    def arm() -> None:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(sig), 0, 0, 0)  # PR_SET_PDEATHSIG
+
+    return arm
+
+
 def free_port(host: str = "127.0.0.1") -> int:
     with socket.socket() as s:
         s.bind((host, 0))
@@ -187,7 +199,8 @@ class RegistryProcess:
         conf.write_text(self.config())
         log = (self.folder / "registry.log").open("ab")
         self.process = subprocess.Popen([binary, "serve", str(conf)], stdout=log,
-                                        stderr=subprocess.STDOUT, start_new_session=True)
+                                        stderr=subprocess.STDOUT, start_new_session=True,
+                                        preexec_fn=die_with_parent(signal.SIGKILL))
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             if self.process.poll() is not None:

@@ -25,6 +25,7 @@ import _thread
 import json
 import logging
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -36,7 +37,7 @@ from typing import Any
 
 from orchestrator._channel.client import ChannelClient
 from orchestrator._channel.db import ChannelError
-from orchestrator._channel.registry import RUNNER
+from orchestrator._channel.registry import RUNNER, die_with_parent
 from schemas import (
     CampaignSpec,
     EpisodeRow,
@@ -170,7 +171,8 @@ class Runner:
         self.say(f"{work.id} ({work.team}): pre-flight on {split}, seed {check.seed}")
         try:
             done = subprocess.run(cmd, capture_output=True, text=True,
-                                  timeout=check.timeout_s)
+                                  timeout=check.timeout_s,
+                                  preexec_fn=die_with_parent(signal.SIGTERM))
         except subprocess.TimeoutExpired:
             return Outcome(runner=self.name, kind="preflight", ok=False, image_id=image.id,
                            reason=f"the pre-flight episode took over {check.timeout_s:.0f} s")

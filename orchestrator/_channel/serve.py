@@ -22,7 +22,7 @@ from typing import Any
 
 from orchestrator._channel.channel import Channel
 from orchestrator._channel.db import ChannelDB, ChannelError, Clock
-from orchestrator._channel.registry import RegistryProcess, free_port
+from orchestrator._channel.registry import RegistryProcess, die_with_parent, free_port
 from schemas import ChallengeSpec, SchemaError, parse_json
 
 Say = Callable[[str], None]
@@ -116,8 +116,8 @@ def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int
     config = uvicorn.Config(create_app(channel), host=host, port=port, log_level="warning",
                             access_log=False)
     stop = threading.Event()
-    threading.Thread(target=_expire_leases, args=(channel, stop), daemon=True,
-                     name="eagc-leases").start()
+    threading.Thread(target=_watch, args=(channel, registry, stop), daemon=True,
+                     name="eagc-watch").start()
     try:
         uvicorn.Server(config).run()
     finally:
@@ -128,26 +128,36 @@ def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int
         channel.db.close()
 
 
-def _expire_leases(channel: Channel, stop: threading.Event, every_s: float = 5.0) -> None:
-    """Puts back what a dead runner held, even when no runner is left to claim work."""
+def _watch(channel: Channel, registry: RegistryProcess, stop: threading.Event,
+           every_s: float = 5.0) -> None:
+    """Puts back what a dead runner held, even when no runner is left to claim work, and
+    starts the registry again should it die (on the same port: pushes resume)."""
     while not stop.wait(every_s):
         try:
             for sid in channel.expire_leases():
                 log.warning("%s: its runner stopped answering; back in line", sid)
         except Exception as e:  # noqa: BLE001 - a busy database: try again next time
             log.warning("expiring leases: %s", e)
+        if not registry.alive() and not stop.is_set():
+            log.warning("the registry exited (%s): starting it again",
+                        registry.process.returncode if registry.process else "?")
+            try:
+                registry.start()
+            except Exception as e:  # noqa: BLE001 - said, and tried again next time
+                log.warning("the registry did not start again: %s", e)
 
 
 def _start_runner(served: Served, workers: int, address: str | None) -> subprocess.Popen[Any]:
     cmd = [sys.executable, "-m", "orchestrator.cli", "challenge", "runner", served.url,
            "--token-file", str(served.data / "runner.token"),
-           "--runs", str(served.data / "runs"), "--workers", str(workers),
-           "--parent", str(os.getpid())]
+           "--runs", str(served.data / "runs"), "--workers", str(workers)]
     if address:
         cmd += ["--address", address]
     log = (served.data / "runner.log").open("ab")
+    # SIGTERM when this process dies, even by SIGKILL: the runner's cancel path runs
+    # (its containers removed) and its submission's lease runs out for the next runner.
     return subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=die_with_parent(signal.SIGTERM))
 
 
 def _stop(child: subprocess.Popen[Any], grace_s: float = 30.0) -> None:

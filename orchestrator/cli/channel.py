@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import os
-import threading
 import time
 from datetime import UTC, datetime
 from pathlib import Path
@@ -71,20 +70,12 @@ def runner_cmd(
     workers: Annotated[int, typer.Option(help="Episodes played at a time.")] = 1,
     address: Annotated[str | None, typer.Option(help="A Ray head (default: embedded).")
                        ] = None,
-    parent: Annotated[int | None, typer.Option(hidden=True)] = None,
 ) -> None:
     """Take submissions from a channel and run them (a runner on another machine)."""
     from orchestrator._channel.runner import Runner
 
     r = Runner(url=url, token=token_file.read_text().strip(), runs=runs, address=address,
                workers=workers, say=lambda s: err.print(s, highlight=False, soft_wrap=True))
-    if parent is not None:
-        def orphaned() -> None:
-            while not r.stop.wait(2.0):
-                if os.getppid() != parent:
-                    r.stop.set()
-                    os.kill(os.getpid(), 15)
-        threading.Thread(target=orphaned, daemon=True).start()
     err.print(f"runner {r.name}: taking work from {url}", highlight=False)
     r.serve()
 

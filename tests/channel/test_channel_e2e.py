@@ -31,14 +31,16 @@ CRASH = "eagc-test/crash:latest"
 class Served:
     """One `eagc challenge serve` in a short private folder, and its teams' logins."""
 
-    def __init__(self, runner: bool) -> None:
-        self.data = Path(tempfile.mkdtemp(prefix="eagc-ch-", dir="/tmp"))
+    def __init__(self, runner: bool, challenge: Path = EXAMPLE,
+                 data: Path | None = None) -> None:
+        self.data = data or Path(tempfile.mkdtemp(prefix="eagc-ch-", dir="/tmp"))
         self.log = self.data.parent / f"{self.data.name}.log"
-        cmd = [sys.executable, "-m", "orchestrator.cli", "challenge", "serve", str(EXAMPLE),
+        (self.data / "serve.json").unlink(missing_ok=True)
+        cmd = [sys.executable, "-m", "orchestrator.cli", "challenge", "serve", str(challenge),
                "--data", str(self.data), "--port", "0"]
         if not runner:
             cmd.append("--no-runner")
-        self.proc = subprocess.Popen(cmd, stdout=self.log.open("wb"),
+        self.proc = subprocess.Popen(cmd, stdout=self.log.open("ab"),
                                      stderr=subprocess.STDOUT, start_new_session=True)
         deadline = time.monotonic() + 60
         while not (self.data / "serve.json").is_file():
@@ -79,7 +81,7 @@ class Served:
                         team=team)
         assert out.returncode == 0, out.stderr
 
-    def stop(self) -> None:
+    def stop(self, remove: bool = True) -> None:
         if self.proc.poll() is None:
             os.killpg(self.proc.pid, signal.SIGTERM)
             try:
@@ -87,7 +89,8 @@ class Served:
             except subprocess.TimeoutExpired:
                 os.killpg(self.proc.pid, signal.SIGKILL)
                 self.proc.wait(10)
-        shutil.rmtree(self.data, ignore_errors=True)
+        if remove:
+            shutil.rmtree(self.data, ignore_errors=True)
 
 
 @pytest.fixture()

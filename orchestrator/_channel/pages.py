@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import base64
 import hashlib
+import logging
 import re
 import threading
 from collections import Counter
@@ -33,9 +34,17 @@ from starlette.concurrency import run_in_threadpool
 
 from orchestrator._channel.channel import Channel, utc_text
 from orchestrator._channel.db import ChannelError
-from schemas import EpisodeResult, QuotaView, SplitSummary, SubmissionState, SubmissionView
+from schemas import (
+    EpisodeResult,
+    QuotaView,
+    SplitSummary,
+    SubmissionState,
+    SubmissionView,
+    __version__,
+)
 
 S = SubmissionState
+log = logging.getLogger("eagc.channel")
 #: The cookie that holds a team's token (HttpOnly, SameSite=Strict).
 COOKIE = "eagc_token"
 #: Seconds between two refreshes of a page on which something waits or runs.
@@ -102,7 +111,10 @@ class Pages:
     def __init__(self, channel: Channel) -> None:
         self.channel = channel
         self.env = _env()
+        #: Seconds between two refreshes while something waits or runs (tests shorten it).
+        self.refresh_s = REFRESH_S
         self._lock = threading.Lock()
+        self._render = threading.Lock()  # one episode page made at a time
         #: phase → (the scored rows it was computed from, the board)
         self._boards: dict[str, tuple[tuple[tuple[str, float], ...], Any]] = {}
         #: submission → (split, index) → its public episode's result (scored: final)
@@ -143,7 +155,7 @@ class Pages:
         live = any(not v.state.final for v in views)
         return self.html("team.html", header=header, quota=quota,
                          submissions=[_row(v, now) for v in views], scored=scored,
-                         histories=views, states=STATES, live=live, refresh=REFRESH_S)
+                         histories=views, states=STATES, live=live, refresh=self.refresh_s)
 
     def _scored(self, v: SubmissionView, on_board: bool, team: str) -> dict[str, Any]:
         rank = None
@@ -222,14 +234,22 @@ class Pages:
         if result is None or folder is None:
             return self.problem(f"episode {split}/{index} of {sid} has no page here: its "
                                 "folder is not on the channel's machine", 404)
-        out = ch.data / "pages" / "episodes" / result.episode
+        # Made once per eagc version (the viewer's pages change with it), then kept.
+        out = ch.data / "pages" / "episodes" / __version__ / result.episode
         page = out / "index.html"
-        if not page.is_file():
-            from orchestrator._viewer import write_episode_site
+        with self._render:
+            if not page.is_file():
+                from orchestrator._viewer import write_episode_site
 
-            write_episode_site(folder, out, organizer=False)
-        return HTMLResponse(page.read_text(encoding="utf-8"),
-                            headers=_headers(_EPISODE_CSP))
+                try:
+                    write_episode_site(folder, out, organizer=False)
+                except Exception as e:  # noqa: BLE001 - a damaged folder: one line
+                    log.warning("episode page of %s: %s", folder, e)
+                    return self.problem(f"episode {split}/{index} of {sid}: its page could "
+                                        f"not be made ({e})", 500)
+        html = page.read_text(encoding="utf-8").replace(
+            "<body>", '<body>\n<p><a href="/team">← your team\'s page</a></p>', 1)
+        return HTMLResponse(html, headers=_headers(_EPISODE_CSP))
 
 
 # ---------------------------------------------------------------------- what a row shows
@@ -258,7 +278,7 @@ def _eta(eta_s: float | None, now: datetime) -> str:
     if eta_s is None:
         return "ETA once a first run has been timed"
     if eta_s < 60:
-        return "ETA: next"
+        return "ETA: within a minute"
     m = int(eta_s // 60)
     text = f"{m // 60} h {m % 60} min" if m >= 60 else f"{m} min"
     return f"ETA in about {text} ({utc_text(now + timedelta(seconds=eta_s))})"

@@ -113,6 +113,9 @@ class ChallengeSpec(_Model):
                                    "(more with `eagc challenge teams add`).")
     phases: tuple[ChallengePhase, ...] = Field(min_length=1)
     token_days: float = Field(default=60.0, gt=0, description="Lifetime of a team's token.")
+    storage_mb_per_team: int = Field(default=20_000, ge=1, description="The registry's "
+                                     "storage a team's images may take; pushes beyond it "
+                                     "are refused.")
     lease_s: float = Field(default=60.0, ge=5.0, description="A running submission's lease: "
                            "a runner that stops renewing it loses the submission to the "
                            "queue after this long.")

@@ -18,7 +18,7 @@ REPO = Path(__file__).resolve().parents[1]
 FLOORS = ("schemas", "simhost", "plugins", "orchestrator")
 #: The orchestrator's rooms, lowest first (``_errors`` is the floor under all of them).
 ROOMS = ("_errors", "_programs", "_runtimes", "_results", "_images", "_episode", "_campaign",
-         "_viewer", "conformance", "cli")
+         "_viewer", "_channel", "conformance", "cli")
 
 
 def _module(path: Path) -> str:

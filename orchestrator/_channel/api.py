@@ -33,6 +33,7 @@ from typing import Annotated, Any
 from fastapi import Depends, FastAPI, Header, HTTPException, Query, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, Response
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from orchestrator._channel import pages
 from orchestrator._channel.channel import Channel, utc_text
@@ -85,23 +86,33 @@ def create_app(channel: Channel) -> FastAPI:
         return Response(metrics.exposition(),
                         media_type="text/plain; version=0.0.4; charset=utf-8")
 
+    def refuse(request: Request, status: int, detail: str,
+               headers: dict[str, str] | None = None) -> JSONResponse:
+        """The one-line JSON refusal, kept in the database with who asked what."""
+        client = request.client.host if request.client else "?"
+        channel.db.record_refusal(client, request.method, request.url.path, status, detail)
+        return JSONResponse({"detail": detail}, status_code=status, headers=headers)
+
     @app.exception_handler(ChannelError)
-    async def channel_error(_: Request, e: ChannelError) -> JSONResponse:
-        return JSONResponse({"detail": str(e)}, status_code=e.status)
+    async def channel_error(request: Request, e: ChannelError) -> JSONResponse:
+        return refuse(request, e.status, str(e))
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, e: StarletteHTTPException) -> JSONResponse:
+        return refuse(request, e.status_code, str(e.detail), dict(e.headers or {}))
 
     @app.exception_handler(RequestValidationError)
-    async def bad_request(_: Request, e: RequestValidationError) -> JSONResponse:
+    async def bad_request(request: Request, e: RequestValidationError) -> JSONResponse:
         first = e.errors()[0] if e.errors() else {}
         where = ".".join(str(p) for p in first.get("loc", ()) if p != "body")
-        return JSONResponse({"detail": f"malformed request: {where or 'body'}: "
-                             f"{first.get('msg', 'invalid')}"}, status_code=422)
+        return refuse(request, 422, f"malformed request: {where or 'body'}: "
+                      f"{first.get('msg', 'invalid')}")
 
     @app.middleware("http")
     async def cap_body(request: Request, call_next: Any) -> Any:
         size = request.headers.get("content-length")
         if size is not None and (not size.isdigit() or int(size) > MAX_BODY):
-            return JSONResponse({"detail": f"request body over {MAX_BODY // 1024} KiB"},
-                                status_code=413)
+            return refuse(request, 413, f"request body over {MAX_BODY // 1024} KiB")
         return await call_next(request)
 
     @app.get("/api/v1/whoami")
@@ -113,7 +124,9 @@ def create_app(channel: Channel) -> FastAPI:
             open_phase, why = None, str(e)
         else:
             why = ""
+        used, cap = channel.storage(who)
         return {"team": who, "challenge": channel.spec.name, "track": channel.spec.track,
+                "storage_bytes": used, "storage_cap_bytes": cap,
                 "registry": channel.registry_address(), "repository": f"teams/{who}",
                 "phase": open_phase, "closed_because": why,
                 "phases": [{"name": w.phase.name, "kind": w.phase.kind,
@@ -184,7 +197,14 @@ def create_app(channel: Channel) -> FastAPI:
     def token(request: Request, service: str = "", account: str = "",
               scope: Annotated[list[str] | None, Query()] = None) -> dict[str, Any]:
         who = _basic(request.headers.get("authorization"), channel)
-        return channel.keys.token(who, grant(who, scope or []))
+        access = grant(who, scope or [])
+        if who != RUNNER and any("push" in a["actions"] for a in access):
+            used, cap = channel.storage(who)
+            if used >= cap:  # the registry then answers the push with "denied"
+                log.warning("team %s is at its storage cap (%d of %d bytes)", who, used, cap)
+                access = [{**a, "actions": [x for x in a["actions"] if x != "push"]}
+                          for a in access]
+        return channel.keys.token(who, access)
 
     pages.mount(app)
     return app

@@ -140,6 +140,13 @@ class Channel:
             raise ChannelError("the channel's registry is not running", 503)
         return self.registry.address
 
+    def storage(self, team: str) -> tuple[int, int]:
+        """(bytes the team's images take in the registry, the cap)."""
+        from orchestrator._channel.storage import team_usage
+
+        used = team_usage(self.data / "registry" / "storage", team)
+        return used, self.spec.storage_mb_per_team * 2**20
+
     def submit(self, team: str, req: SubmitRequest) -> SubmissionView:
         """Accepts ``req`` for ``team`` in the open phase: resolves the image's manifest
         digest (from then on only that digest runs) and queues its pre-flight."""
@@ -154,6 +161,9 @@ class Channel:
                                f"image of teams/{team}/…", 403)
         if self.registry is None:
             raise ChannelError("the channel's registry is not running", 503)
+        # Over quota: refused before the registry is asked (``accept`` checks again, in the
+        # transaction that charges it).
+        self._may_submit(self.db.db, team, phase)
         digest = self.registry.manifest_digest(repository, reference)
         if digest is None:
             raise ChannelError(f"the registry has no image {repository}"

@@ -186,5 +186,10 @@ def submit(image: str, login: Login, *, note: str = "", disclosure: Path | None 
         except OSError as e:
             raise ChannelError(f"cannot read the disclosure {disclosure}: "
                                f"{e.strerror or e}") from None
+    if not _is_pushed(image) and who.get("storage_bytes", 0) >= who.get("storage_cap_bytes", 1):
+        raise ChannelError(f"your team's images take {who['storage_bytes'] / 2**20:,.0f} MB "
+                           f"of the registry, its cap ({who['storage_cap_bytes'] / 2**20:,.0f}"
+                           " MB): submit an image already pushed (teams/<team>/<name>@<digest>)"
+                           " or ask the organizers")
     ref = image if _is_pushed(image) else push(image, login, who["registry"], say)
     return client.submit(SubmitRequest(image=ref, note=note, disclosure=text))

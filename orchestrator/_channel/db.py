@@ -46,11 +46,15 @@ CREATE TABLE IF NOT EXISTS submissions (
     preflight TEXT NOT NULL DEFAULT '', wall_s REAL, result TEXT,
     charged INTEGER NOT NULL DEFAULT 1, day TEXT NOT NULL, rerun_of TEXT);
 CREATE INDEX IF NOT EXISTS submissions_state ON submissions (state, queued_at);
+CREATE INDEX IF NOT EXISTS submissions_quota ON submissions (team, phase, day);
 CREATE TABLE IF NOT EXISTS history (
     submission TEXT NOT NULL, at REAL NOT NULL, state TEXT NOT NULL, detail TEXT NOT NULL);
 CREATE INDEX IF NOT EXISTS history_submission ON history (submission, at);
 CREATE TABLE IF NOT EXISTS grants (
     team TEXT NOT NULL, phase TEXT NOT NULL, day TEXT NOT NULL, n INTEGER NOT NULL);
+CREATE TABLE IF NOT EXISTS refusals (
+    at REAL NOT NULL, client TEXT NOT NULL, method TEXT NOT NULL, path TEXT NOT NULL,
+    status INTEGER NOT NULL, detail TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS actions (
     at REAL NOT NULL, who TEXT NOT NULL, action TEXT NOT NULL, target TEXT NOT NULL,
     why TEXT NOT NULL);
@@ -252,6 +256,23 @@ class ChannelDB:
         """An organizer's action: who, when, what, on what, why (``eagc challenge``)."""
         db.execute("INSERT INTO actions VALUES (?, ?, ?, ?, ?)",
                    (self.clock.now(), who, action, target, why))
+
+    def record_refusal(self, client: str, method: str, path: str, status: int,
+                       detail: str) -> None:
+        """A request the API refused (who asked what, and why): hostile or mistaken, it is
+        kept (``eagc challenge log``)."""
+        try:
+            with self.tx() as db:
+                db.execute("INSERT INTO refusals VALUES (?, ?, ?, ?, ?, ?)",
+                           (self.clock.now(), client[:100], method[:10], path[:300], status,
+                            detail[:500]))
+        except sqlite3.Error:  # never fail a refusal for its record
+            pass
+
+    def refusals(self, limit: int = 100) -> list[tuple[float, str, str, str, int, str]]:
+        return list(self.db.execute(
+            "SELECT * FROM (SELECT * FROM refusals ORDER BY at DESC, rowid DESC LIMIT ?) "
+            "ORDER BY at", (limit,)))
 
     def actions(self) -> list[tuple[float, str, str, str, str]]:
         return list(self.db.execute("SELECT * FROM actions ORDER BY at, rowid"))

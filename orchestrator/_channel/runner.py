@@ -6,7 +6,7 @@ pre-flight never waits for a campaign nor takes its workers:
 
 - **pre-flight** (a thread, one at a time): pulls ``repo@sha256:…`` with the runner's
   credentials, checks the image's size and platform, and plays one public episode in the
-  sandbox (``orchestrator._programs.preflight``, a process of its own) against the
+  sandbox (``orchestrator._channel.preflight``, a process of its own) against the
   container contract;
 - **run** (the main thread): plays the phase's campaign with this one submission
   (``run_campaign``: the phase's seeds, so every submission of the phase is paired), then
@@ -162,7 +162,7 @@ class Runner:
             return Outcome(runner=self.name, kind="preflight", ok=False, reason=fail,
                            image_id=image.id)
         split = check.split or _public_split(campaign.track)
-        cmd = [sys.executable, "-m", "orchestrator._programs.preflight", "--image", image.id,
+        cmd = [sys.executable, "-m", "orchestrator._channel.preflight", "--image", image.id,
                "--track", campaign.track, "--split", split, "--seed", str(check.seed),
                "--time-scale", str(check.time_scale), "--memory-mb", str(check.memory_mb),
                "--runs", str(self.runs / "preflight")]

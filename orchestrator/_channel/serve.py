@@ -72,6 +72,16 @@ def open_db(data: Path) -> ChannelDB:
     return ChannelDB(data / "channel.sqlite")
 
 
+def serving(data: Path) -> bool:
+    """Whether a channel process serves ``data`` now."""
+    try:
+        pid = int(json.loads((data / "serve.json").read_text())["pid"])
+        os.kill(pid, 0)
+    except (OSError, ValueError, KeyError):
+        return False
+    return True
+
+
 def open_channel(data: Path) -> Channel:
     """The channel over ``data`` with the challenge file it last served (the organizer's
     commands, serving or not)."""
@@ -126,6 +136,7 @@ def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int
             _stop(child)
         registry.stop()
         channel.db.close()
+        (data / "serve.json").unlink(missing_ok=True)
 
 
 def _watch(channel: Channel, registry: RegistryProcess, stop: threading.Event,

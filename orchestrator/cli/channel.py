@@ -379,3 +379,51 @@ def disable_cmd(team: Annotated[str, typer.Argument(help="The team.")], why: Why
 
     open_channel(data).disable(team, not enable, who=_who(), why=why)
     out.print(f"team {team} {'enabled' if enable else 'disabled'}", highlight=False)
+
+
+@challenge_app.command("log")
+def log_cmd(data: DataOpt = DEFAULT_DATA,
+            refusals: Annotated[int, typer.Option(help="How many of the latest refused "
+                                                  "requests to show.")] = 20) -> None:
+    """The organizers' actions (who, when, what, why) and the latest refused requests."""
+    from orchestrator._channel.serve import open_db
+
+    db = open_db(data)
+    for at, who, action, target, why in db.actions():
+        out.print(f"{datetime.fromtimestamp(at, UTC):%m-%d %H:%M:%S}  {who:<10} {action:<8} "
+                  f"{target}: {why}", highlight=False, soft_wrap=True)
+    for at, client, method, path, status, detail in db.refusals(refusals):
+        out.print(f"{datetime.fromtimestamp(at, UTC):%m-%d %H:%M:%S}  refused {status} "
+                  f"{method} {path} from {client}: {detail}", highlight=False, soft_wrap=True)
+
+
+@challenge_app.command("gc")
+def gc_cmd(why: WhyOpt, data: DataOpt = DEFAULT_DATA) -> None:
+    """Remove from the registry every image no submission names (the channel stopped)."""
+    from orchestrator._channel.db import ChannelError
+    from orchestrator._channel.serve import open_channel, serving
+    from orchestrator._channel.storage import collect
+
+    if serving(data):
+        raise ChannelError("the channel is serving: stop it first (the registry's garbage "
+                           "collection must not run beside pushes)")
+    ch = open_channel(data)
+    keep = {(r.repository, r.digest) for r in ch.db.rows()}
+    got = collect(data / "registry" / "storage", data / "registry" / "config.yml", keep)
+    with ch.db.tx() as db:
+        ch.db.record_action(db, _who(), "gc", f"{got.manifests} images", why)
+    out.print(f"removed {got.manifests} image{'s' if got.manifests != 1 else ''} no "
+              f"submission names; {got.freed_bytes / 2**20:,.1f} MB freed", highlight=False)
+
+
+@challenge_app.command("backup")
+def backup_cmd(to: Annotated[Path, typer.Option("--to", help="The backup's folder.")],
+               data: DataOpt = DEFAULT_DATA) -> None:
+    """A consistent copy of the channel, serving or not (docs/channel.md, Backups)."""
+    from orchestrator._channel.serve import open_db
+    from orchestrator._channel.storage import backup
+
+    open_db(data).close()  # a channel's folder, or one line saying it is not
+    for path in backup(data, to):
+        out.print(f"  {path}", highlight=False)
+    out.print(f"backed up {data} to {to}", highlight=False)

@@ -192,6 +192,25 @@ def test_bad_requests_are_refused_in_one_line(channel_only: Served) -> None:
     runner = requests.post(ch.url + "/api/v1/runner/claim", headers=auth,
                            json={"runner": "x", "kind": "run"}, timeout=10)
     assert runner.status_code == 401  # a team's token is not the runner's
+    # Names with path tricks never reach the registry as another team's repository.
+    for trick in ("teams/team-a/../team-b/x:v1", "teams/team-a/%2e%2e/x", "../etc/passwd",
+                  "teams/TEAM-A/x", "teams/team-a//x", "127.0.0.1:1/teams/team-a/x"):
+        r = requests.post(ch.url + "/api/v1/submissions", headers=auth,
+                          json={"image": trick}, timeout=10)
+        assert r.status_code == 400, (trick, r.text)
+        assert "is not an image of the channel's registry" in r.json()["detail"]
+    sneaky = requests.get(ch.url + "/api/v1/submissions/..%2F..%2Fchannel.sqlite",
+                          headers=auth, timeout=10)
+    assert sneaky.status_code == 404
+    cancel = requests.post(ch.url + "/api/v1/submissions/s-0000000000/cancel",
+                           headers=auth, timeout=10)
+    assert cancel.status_code == 404
+    # Each refusal is kept: who asked what, and why.
+    log = ch.eagc("challenge", "log", "--data", str(ch.data), "--refusals", "50")
+    assert log.returncode == 0, log.stderr
+    assert "refused 413 POST /api/v1/submissions" in log.stdout
+    assert "refused 401 POST /api/v1/runner/claim" in log.stdout
+    assert "'teams/team-a/../team-b/x:v1' is not an image" in log.stdout
 
 
 def _wait_final(ch: Served, team: str, sid: str, timeout: float = 600) -> dict[str, Any]:

@@ -1,4 +1,4 @@
-"""A submission's pre-flight episode: ``python -m orchestrator._programs.preflight``.
+"""A submission's pre-flight episode: ``python -m orchestrator._channel.preflight``.
 
 Runs one public episode of the image in the full sandbox, then the container contract
 (``eagc test``'s checks), and prints one JSON line: ``{"ok": …, "summary": …, "checks":

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import re
 import secrets
+import shutil
 import sys
 import tempfile
 import threading
@@ -173,6 +174,7 @@ def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
         server.should_exit = True
         thread.join(10)
         ch.db.close()
+        shutil.rmtree(data, ignore_errors=True)
 
 
 def _log_in(b: Browser, url: str, team: str, token: str) -> list[str]:

@@ -21,7 +21,11 @@ so that the loss of a worker node never takes live progress with it.
 from __future__ import annotations
 
 import logging
+import os
+import sys
+import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -128,6 +132,7 @@ class Driver:
         self.archives: dict[str, list[Any]] = {}
         self.board: Any = None
         self.watch: ClusterWatch | None = None
+        self.here = ""  # the driver's own Ray node
         self._nodes_checked = 0.0
 
     def close(self) -> None:
@@ -181,22 +186,26 @@ class Driver:
 
         from orchestrator._campaign.fanout import ProgressBoard, cleanup_nodes
 
+        here = self.here = ray.get_runtime_context().get_node_id()
+        raylet = next(((n["NodeManagerAddress"], int(n["NodeManagerPort"]))
+                       for n in ray.nodes() if n["NodeID"] == here), None)
         self.watch = ClusterWatch(ray.get_runtime_context().gcs_address,
-                                  self.options.cluster_patience_s)
-        here = ray.get_runtime_context().get_node_id()
-        self.board = ProgressBoard.options(
-            scheduling_strategy=NodeAffinitySchedulingStrategy(node_id=here, soft=False)
-        ).remote()
-        # Containers a killed earlier driver of this campaign left behind.
-        self._reaped(len(cleanup_nodes({"campaign": self.name}, str(self.folder))))
-        for sub in self.spec.submissions:
-            if sub.archive is not None and len(ray.nodes()) > 1:
-                self.archives[sub.team] = [ray.put(sub.archive.read_bytes())]
-        for key in todo:
-            self._submit(key, self.store.attempts(self.name, key))
-        self.events.write(Submitted(episodes=len(todo), board_node=here))
-        progress, bar = self._progress(len(todo))
+                                  self.options.cluster_patience_s, raylet=raylet,
+                                  on_stuck=self._stuck)
         try:
+            self.board = ProgressBoard.options(
+                scheduling_strategy=NodeAffinitySchedulingStrategy(node_id=here, soft=False)
+            ).remote()
+            # Containers a killed earlier driver of this campaign left behind.
+            self._reaped(len(self._off_thread(cleanup_nodes, {"campaign": self.name},
+                                              str(self.folder))))
+            for sub in self.spec.submissions:
+                if sub.archive is not None and len(ray.nodes()) > 1:
+                    self.archives[sub.team] = [ray.put(sub.archive.read_bytes())]
+            for key in todo:
+                self._submit(key, self.store.attempts(self.name, key))
+            self.events.write(Submitted(episodes=len(todo), board_node=here))
+            progress, bar = self._progress(len(todo))
             with progress:
                 while self.pending:
                     self._step()
@@ -270,11 +279,51 @@ class Driver:
         self.pending[submit(job, self.board)] = job
 
     def _check_cluster(self) -> None:
-        if self.watch is not None and self.watch.lost.is_set():
-            raise ClusterLost(
-                f"the Ray cluster stopped answering (its GCS at "
-                f"{self.watch.target[0]}:{self.watch.target[1]} refused connections for "
-                f"{self.watch.patience_s:g} s)")
+        """ClusterLost once the watch saw the cluster go; this thread then runs the failure
+        path, unless the watch's own thread already does (``_stuck``)."""
+        if self.watch is None or not self.watch.lost.is_set():
+            return
+        if not self.watch.claim():
+            threading.Event().wait()  # ``_stuck`` ends the process
+        raise ClusterLost(f"the Ray cluster stopped answering ({self.watch.reason})")
+
+    def _off_thread(self, fn: Callable[..., Any], *args: Any,
+                    timeout_s: float | None = None) -> Any:
+        """``fn(*args)``, a Ray call that may wait for the GCS as long as Ray retries it
+        (``ray.nodes()`` does, until Ray's own abort after 60 s), run on a thread of its own
+        and waited for in slices: ClusterLost as soon as the watch saw the cluster go,
+        TimeoutError after ``timeout_s``. A thread left waiting ends with the process."""
+        box: dict[str, Any] = {}
+
+        def call() -> None:
+            try:
+                box["value"] = fn(*args)
+            except BaseException as e:  # noqa: BLE001 - raised again in the driver's thread
+                box["error"] = e
+
+        thread = threading.Thread(target=call, daemon=True, name="eagc-ray-call")
+        thread.start()
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        while thread.is_alive():
+            thread.join(0.5)
+            self._check_cluster()
+            if deadline is not None and thread.is_alive() and time.monotonic() > deadline:
+                raise TimeoutError(f"{getattr(fn, '__name__', fn)} took over {timeout_s:g} s")
+        if "error" in box:
+            raise box["error"]
+        return box.get("value")
+
+    def _get(self, ref: Any, timeout_s: float) -> Any:
+        """``ray.get(ref)`` within ``timeout_s`` (GetTimeoutError), waited for in slices so
+        that a lost cluster is noticed meanwhile (ClusterLost)."""
+        import ray
+
+        deadline = time.monotonic() + timeout_s
+        while not ray.wait([ref], timeout=min(0.5, max(0.0, deadline - time.monotonic())))[0]:
+            self._check_cluster()
+            if time.monotonic() >= deadline:
+                raise ray.exceptions.GetTimeoutError(f"no answer within {timeout_s:g} s")
+        return ray.get(ref)
 
     def _step(self) -> None:
         import ray
@@ -300,10 +349,13 @@ class Driver:
             return
         self._nodes_checked = time.monotonic()
         try:
-            dead = {n["NodeID"] for n in ray.nodes() if not n.get("Alive")}
-        except Exception as e:  # noqa: BLE001 - the GCS is busy or gone: ClusterWatch says
+            nodes = self._off_thread(ray.nodes, timeout_s=10.0)
+        except ClusterLost:
+            raise
+        except Exception as e:  # noqa: BLE001 - the GCS is busy: ask again later
             log.warning("could not list Ray's nodes: %s", e)
             return
+        dead = {n["NodeID"] for n in nodes if not n.get("Alive")}
         if not dead:
             return
         for ref, job in list(self.pending.items()):
@@ -331,7 +383,7 @@ class Driver:
         from orchestrator._campaign.fanout import ProgressBoard
 
         try:
-            events = ray.get(self.board.drain.remote(), timeout=10)
+            events = self._get(self.board.drain.remote(), timeout_s=10)
         except ray.exceptions.RayError as e:  # the driver's own node is in trouble
             self._check_cluster()
             log.warning("the progress board is gone (%s); starting a new one", e)
@@ -353,7 +405,7 @@ class Driver:
         import ray
 
         job = self.pending.pop(ref)
-        self.running.pop(job.episode, None)
+        started = self.running.pop(job.episode, None)
         self.finished.add(job.episode)
         self.metrics.set_running(len(self.running))
         if self.broken is not None:  # the result stays in its folder: rebuild-store finds it
@@ -374,10 +426,8 @@ class Driver:
             if self.cancelling:
                 return
             # Charged only if the fault was on the episode's own node: with the whole
-            # cluster gone, nobody's episode is to blame.
-            if self.watch is not None and not self.watch.alive(timeout=2.0):
-                self.watch.lost.set()
-                self._check_cluster()
+            # cluster gone, or this driver's own raylet, nobody's episode is to blame.
+            self._blame(e, None if started is None else started.node)
             crashed = True
             message = f"{type(e).__name__}: " + (str(e).strip().splitlines() or [""])[0][:300]
         try:
@@ -385,6 +435,20 @@ class Driver:
         except StoreError:
             self.metrics.store_error()
             raise
+
+    def _blame(self, error: Exception, node: str | None) -> None:
+        """ClusterLost unless the failed task's own node is to blame: Ray says this node's
+        raylet died under it, or the GCS or this node's raylet stops answering now or a
+        second later (a cluster being killed ends its workers before its GCS)."""
+        import ray
+
+        if self.watch is None:
+            return
+        if isinstance(error, ray.exceptions.LocalRayletDiedError) and node == self.here:
+            self.watch.mark_lost("this node's raylet died")
+        elif self.watch.confirm():
+            return
+        self._check_cluster()
 
     def _record(self, job: EpisodeJob, result: EpisodeResult | None, node: str | None,
                 crashed: bool, message: str, *, reach: bool = True) -> None:
@@ -411,8 +475,9 @@ class Driver:
         self.store.record_attempt(self.name, key, retry=job.retry, episode=job.episode,
                                   message=message, node=node, result=result)
         if crashed and reach:  # the dead worker's container and output mount
-            self._reaped(len(cleanup_nodes({"campaign": self.name, "episode": job.episode},
-                                           str(self.folder / job.episode))))
+            self._reaped(len(self._off_thread(
+                cleanup_nodes, {"campaign": self.name, "episode": job.episode},
+                str(self.folder / job.episode))))
         if self.cancelling:
             return
         if job.retry < self.spec.retries:
@@ -466,7 +531,11 @@ class Driver:
         except KeyboardInterrupt:
             pass
         self.pending.clear()
-        self._reaped(len(cleanup_nodes({"campaign": self.name}, str(self.folder))))
+        try:
+            self._reaped(len(self._off_thread(cleanup_nodes, {"campaign": self.name},
+                                              str(self.folder))))
+        except ClusterLost:  # lost while cancelling: this node's containers, without Ray
+            self._cleanup_here()
 
     def _collect(self, timeout: float) -> None:
         """Finish (commit) whichever pending tasks are done within ``timeout`` seconds."""
@@ -484,31 +553,59 @@ class Driver:
 
     def _fail(self, fault: StoreError | ClusterLost) -> None:
         """The store or the cluster failed: the cancel path, then DriverFailure."""
-        from orchestrator._campaign.fanout import cleanup_here
-
         self.broken = fault
         lost = isinstance(fault, ClusterLost)
-        code = EXIT_CLUSTER if lost else EXIT_STORE
         self.events.try_write(Stopped(event="failed", reason="cluster" if lost else "store",
                                       message=str(fault), pending=len(self.pending)))
         if lost:
             # No Ray to ask: this node's containers through the engine; other nodes' are
             # bounded by their episode watchers (no heartbeat: removed within a minute).
             self.report.cancelled = True
-            try:
-                self._reaped(len(cleanup_here({"campaign": self.name}, str(self.folder))))
-            except Exception as e:  # noqa: BLE001 - no engine here: the watchers remain
-                log.warning("local cleanup after losing the cluster: %s", e)
+            self._cleanup_here()
             self.pending.clear()
         else:
             self._cancel()
+        raise DriverFailure(self._failure_message(fault),
+                            EXIT_CLUSTER if lost else EXIT_STORE) from None
+
+    def _failure_message(self, fault: StoreError | ClusterLost) -> str:
         kept = self.report.committed + self.report.skipped
-        raise DriverFailure(
-            f"{fault}. The campaign stopped: running episodes were cancelled and their "
-            f"containers removed; the {kept} result(s) committed are kept. "
-            + ("Start the Ray cluster again, then run the campaign again: it resumes."
-               if lost else f"Then run the campaign again (it resumes); `{REBUILD}` adds "
-               "results that finished after the failure."), code) from None
+        return (f"{fault}. The campaign stopped: running episodes were cancelled and their "
+                f"containers removed; the {kept} result(s) committed are kept. "
+                + ("Start the Ray cluster again, then run the campaign again: it resumes."
+                   if isinstance(fault, ClusterLost) else
+                   f"Then run the campaign again (it resumes); `{REBUILD}` adds results that "
+                   "finished after the failure."))
+
+    def _cleanup_here(self) -> None:
+        """This node's containers of the campaign, through the engine (no Ray)."""
+        from orchestrator._campaign.fanout import cleanup_here
+
+        try:
+            self._reaped(len(cleanup_here({"campaign": self.name}, str(self.folder))))
+        except Exception as e:  # noqa: BLE001 - no engine here: the watchers remain
+            log.warning("local cleanup after losing the cluster: %s", e)
+
+    def _stuck(self) -> None:
+        """The watch's last resort, on its own thread: the cluster is lost and the driver's
+        thread did not notice within the watch's grace, waiting in a Ray call that Ray ends
+        only with its 60 s abort (no cleanup). The same ending as ``_fail`` for a lost
+        cluster, without Ray and without the driver's thread: the event, this node's
+        containers, one line on stderr, exit 6 (``os._exit``: Ray's exit hooks would wait
+        for the dead GCS too). Committed results are in the store already."""
+        reason = "" if self.watch is None else f" ({self.watch.reason})"
+        fault = ClusterLost(f"the Ray cluster stopped answering{reason}")
+        message = str(fault)
+        try:
+            self.events.try_write(Stopped(event="failed", reason="cluster", message=message,
+                                          pending=len(self.pending)))
+            self._cleanup_here()
+            message = self._failure_message(fault)
+        except BaseException as e:  # noqa: BLE001 - the process ends below whatever happens
+            log.warning("ending the campaign without Ray: %s", e)
+        finally:
+            print(f"error: {message}", file=sys.stderr, flush=True)
+            os._exit(EXIT_CLUSTER)
 
 
 class _PlainProgress:

@@ -26,10 +26,11 @@ The output folder is created private (0700): episode folders hold the hidden sce
 A campaign that cannot go on ends with one message, a distinct exit code and the cancel
 path run (containers stopped, output mounts removed), keeping what was committed:
 ``StoreError`` (a damaged store refused at the start, a write that failed: a full disk) and
-``ClusterLost`` (the Ray cluster's GCS stopped answering; the driver notices within
-``cluster_patience_s`` and leaves before Ray's own 60 s abort, which would skip all of
-this). An episode in flight is charged a retry only when its own node failed, never for a
-lost cluster or a failed store.
+``ClusterLost`` (this node's raylet stopped answering, noticed within about a second, or
+the Ray cluster's GCS, noticed within ``cluster_patience_s``; the driver leaves before Ray's
+own 60 s abort, which would skip all of this, even when a Ray call of its own waits for the
+dead GCS: ``ClusterWatch``). An episode in flight is charged a retry only when its own
+node failed, never for a lost cluster or a failed store.
 """
 
 from __future__ import annotations
@@ -40,8 +41,9 @@ import logging
 import math
 import os
 import signal
+import socket
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -61,7 +63,8 @@ class CampaignError(OrchestratorError, RuntimeError):
 
 
 class ClusterLost(CampaignError):
-    """Raised when the Ray cluster's GCS stopped answering while a campaign ran."""
+    """Raised when the Ray cluster (its GCS, or this node's raylet) stopped answering while
+    a campaign ran."""
 
 
 class DriverFailure(CampaignError):
@@ -288,8 +291,6 @@ def _reachable(address: str, patience_s: float = 10.0) -> None:
     """A ``host:port`` address must answer within ``patience_s``: Ray itself would retry an
     unreachable GCS for minutes, printing a warning every few seconds. ``auto`` and
     ``ray://`` addresses are left to Ray."""
-    import socket
-
     if address == "auto" or "://" in address or ":" not in address:
         return
     host, _, port = address.rpartition(":")
@@ -365,38 +366,108 @@ def ray_connection(spec: CampaignSpec, options: CampaignOptions) -> Iterator[Non
 
 
 class ClusterWatch:
-    """Connects to the GCS every second from a thread; ``lost`` once it refused for
-    ``patience_s`` in a row. Ray itself would only notice after 60 s, and then abort the
-    process without running any of the driver's cleanup."""
+    """Watches, from a thread of its own, the two things a driver cannot go on without: the
+    GCS and this node's raylet. ``lost`` is set once this node's raylet refused connections
+    twice in a row (a raylet never comes back: a new one is a new node) or the GCS refused
+    for ``patience_s`` in a row (a GCS with fault tolerance may restart). Ray itself would
+    notice only after 60 s, and then abort the process without the driver's cleanup.
 
-    def __init__(self, address: str, patience_s: float) -> None:
+    The driver's main thread ``claim``s a loss it noticed and runs its failure path. Should
+    it not within ``grace_s`` (stuck in a Ray call that waits for the dead GCS, as
+    ``ray.nodes()`` does until Ray's own abort), the watch's thread claims it and calls
+    ``on_stuck``, which ends the campaign without Ray.
+    """
+
+    def __init__(self, gcs: str, patience_s: float, *, raylet: tuple[str, int] | None = None,
+                 interval_s: float = 0.5, grace_s: float = 5.0,
+                 on_stuck: Callable[[], None] | None = None) -> None:
         import threading
 
-        host, _, port = address.rpartition(":")
+        host, _, port = gcs.rpartition(":")
         self.target = (host or "127.0.0.1", int(port))
         self.patience_s = patience_s
+        self.interval_s = interval_s
+        self.grace_s = grace_s
+        self.on_stuck = on_stuck
+        # A raylet is watched only once it answered: a firewall that refuses us is no loss.
+        self.raylet = raylet if raylet is not None and _answers(raylet, 1.0) else None
+        self.reason = ""
         self.lost = threading.Event()
         self._stop = threading.Event()
+        self._claim = threading.Lock()
+        self._claimed = False
         self._thread = threading.Thread(target=self._run, daemon=True, name="eagc-gcs-watch")
         self._thread.start()
 
     def alive(self, timeout: float = 1.0) -> bool:
-        import socket
+        """Whether the GCS accepts a connection within ``timeout`` seconds."""
+        return _answers(self.target, timeout)
 
-        try:
-            with socket.create_connection(self.target, timeout=timeout):
-                return True
-        except OSError:
+    def confirm(self, settle_s: float = 1.0) -> bool:
+        """After a task failed: whether the cluster is still there, asked twice ``settle_s``
+        apart (a cluster that is being killed may still answer for a moment). False, and
+        ``lost`` set, if the GCS or this node's raylet did not answer either time."""
+        for i in range(2):
+            if i:
+                time.sleep(settle_s)
+            if self._raylet_refused():
+                self.mark_lost(f"this node's raylet at {self._at(self.raylet)} is gone")
+                return False
+            if not self.alive(timeout=2.0):
+                self.mark_lost(f"its GCS at {self._at(self.target)} stopped answering")
+                return False
+        return True
+
+    def claim(self) -> bool:
+        """True for the first caller after a loss (it runs the failure path), else False."""
+        with self._claim:
+            first, self._claimed = not self._claimed, True
+            return first
+
+    def _raylet_refused(self) -> bool:
+        if self.raylet is None:
             return False
+        try:
+            with socket.create_connection(self.raylet, timeout=1.0):
+                return False
+        except ConnectionRefusedError:
+            return True
+        except OSError:  # a timeout on a loaded machine is no verdict
+            return False
+
+    def mark_lost(self, reason: str) -> None:
+        """Sets ``lost`` with its reason (the first one given)."""
+        if not self.lost.is_set():
+            self.reason = reason
+            self.lost.set()
+
+    @staticmethod
+    def _at(target: tuple[str, int] | None) -> str:
+        return "?" if target is None else f"{target[0]}:{target[1]}"
 
     def _run(self) -> None:
         last_ok = time.monotonic()
-        while not self._stop.wait(1.0):
-            if self.alive():
+        refused = 0
+        while not self.lost.is_set() and not self._stop.wait(self.interval_s):
+            refused = refused + 1 if self._raylet_refused() else 0
+            if refused >= 2:
+                self.mark_lost(f"this node's raylet at {self._at(self.raylet)} is gone")
+            elif self.alive():
                 last_ok = time.monotonic()
             elif time.monotonic() - last_ok > self.patience_s:
-                self.lost.set()
-                return
+                self.mark_lost(f"its GCS at {self._at(self.target)} refused connections for "
+                               f"{self.patience_s:g} s")
+        if self.lost.is_set() and not self._stop.wait(self.grace_s) and self.on_stuck:
+            if self.claim():  # the main thread did not notice: it waits in Ray
+                self.on_stuck()
 
     def close(self) -> None:
         self._stop.set()
+
+
+def _answers(target: tuple[str, int], timeout: float) -> bool:
+    try:
+        with socket.create_connection(target, timeout=timeout):
+            return True
+    except OSError:
+        return False

@@ -1,21 +1,27 @@
-"""What every track's audit and score notes share: findings, and log steps against the
-host's count.
+"""What every track's audit and score notes share: findings, log steps against the host's
+count, and the hook through which a track adds checks of its own.
 
 A record of ``episode_log.jsonl`` names the host's step (the count of step requests served)
 it is about, give or take ``STEP_SLACK``. ``log_step_findings`` is the one check of that:
 ``eagc audit`` reports it to organizers (``orchestrator/_episode/audit.py``), and the Track
 1 score card notes it to the team (``plugins/track1/_score.py``).
+
+A track's own checks are an ``EpisodeChecks`` (``TrackPlugin.audit`` makes a fresh one per
+episode): ``eagc audit`` feeds it what the agent was shown as it reads the log and replays
+it, then asks for its ``findings`` on an ``AuditInput``.
 """
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict
 
-from schemas import LogRecord
+from schemas import ActionResult, HostMessage, LogRecord
+from simhost.host import HostEventModel, ScenarioRecord
 
 #: A record may name the step it is about to make, or the one it just made.
 STEP_SLACK = 1
@@ -70,3 +76,51 @@ def log_step_findings(records: Sequence[LogRecord], host: HostSteps,
             f"step {r.step}, {r.event} in {r.stage!r}, which ran over host steps "
             f"{lo}-{hi})")))
     return out
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """The agent's files at one moment: ``name`` (a stage, or ``final``) at host ``step``."""
+
+    name: str
+    step: int
+    files: Mapping[str, bytes]
+
+
+@dataclass(frozen=True)
+class AuditInput:
+    """What a track's checks read of one episode once its log is read (one object, so that
+    fields can be added)."""
+
+    scenario: ScenarioRecord
+    """The hidden scenario as the log recorded it."""
+    events: Sequence[HostEventModel]
+    """The host's events (``/eagc/event``), in log order."""
+    snapshots: Sequence[Snapshot]
+    """The files at each stage end, then at the end (``final``), in time order."""
+    log: Sequence[LogRecord]
+    """The final ``episode_log.jsonl``'s records (empty when it is missing or refused)."""
+    host: HostSteps
+
+
+class EpisodeChecks(ABC):
+    """A track's own checks of one episode (``TrackPlugin.audit``).
+
+    ``eagc audit`` calls ``observe``, ``message`` and ``action`` with what the agent was
+    shown, in order, as it reads the log (observation JSON, messages, action results, small
+    tensors) and replays it (every tensor), then ``findings`` once."""
+
+    def observe(self, step: int, data: Mapping[str, Any],  # noqa: B027 - optional
+                tensors: Mapping[str, Any]) -> None:
+        """One observation at host ``step``: its JSON entries and (any of) its tensors."""
+
+    def message(self, step: int, message: HostMessage) -> None:  # noqa: B027 - optional
+        """One host message (an instruction, queries, …)."""
+
+    def action(self, step: int, action: Mapping[str, Any],  # noqa: B027 - optional
+               result: ActionResult) -> None:
+        """One action as the host checked it, and its result; ``step``: the one it made."""
+
+    @abstractmethod
+    def findings(self, episode: AuditInput) -> list[Finding]:
+        """Everything the checks found."""

@@ -15,6 +15,12 @@ valid actions drawn from ``action_spec`` run through every stage in the host's o
 (``reset → on_stage_start → step… → on_stage_end → … → close``) and the state hash is
 deterministic; ``verify_files`` turns any bytes into ``FileCheck``s and never raises; ``score``
 gives a sound, deterministic ``ScoreCard`` even for an episode in which nothing happened.
+The hooks: each one the plugin overrides takes ``TrackPlugin``'s arguments (checked on
+load); ``audit()`` makes fresh checks that read an episode as ``eagc audit`` feeds it and
+find the same on the same episode; ``vocabulary()`` is Markdown that cannot break the
+protocol page's generated sections. The hooks that read a recorded episode (the viewer's
+``episode_map``, ``step_pictures``, ``truth``; ``picture``) are checked on real episodes by
+``orchestrator.conformance.TrackEpisodeConformance``.
 
 Override the class attributes to fit a track (``seed``, ``split``, ``steps_per_stage``,
 ``valid_files`` when a file model has required fields). Requires pytest only to run.
@@ -22,6 +28,7 @@ Override the class attributes to fit a track (``seed``, ``split``, ``steps_per_s
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import pickle
@@ -30,12 +37,21 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from plugins._base import ParsedFile, Scenario, ScoringInput, TrackPlugin, granted_budgets
+from plugins._audit import AuditInput, EpisodeChecks, Finding, HostSteps, Snapshot
+from plugins._base import Scenario, ScoringInput, TrackPlugin
+from plugins._files import ParsedFile
 from plugins._registry import available_tracks, load_track, validate_plugin
-from schemas import EndReason, FieldSpec, FileCheck, HostMessage, ScoreCard
-from schemas._result import EpisodeStatus
-from simhost.host._actions import check_action
-from simhost.host._episode import EpisodeOutcome, Observation, StageSpec, StepOutcome, TrackEpisode
+from plugins._scoring import granted_budgets
+from schemas import EndReason, EpisodeStatus, FieldSpec, FileCheck, HostMessage, ScoreCard
+from simhost.host import (
+    EpisodeOutcome,
+    Observation,
+    ScenarioRecord,
+    StageSpec,
+    StepOutcome,
+    TrackEpisode,
+    check_action,
+)
 
 __all__ = ["TrackConformance", "check_observation", "check_outcome", "sample_action"]
 
@@ -139,6 +155,19 @@ def check_outcome(plugin: TrackPlugin[Any, Any], outcome: EpisodeOutcome) -> Non
         "the outcome does not read back from its JSON")
 
 
+def _plain(value: Any) -> Any:
+    """An action's value as the episode's log records it (plain JSON)."""
+    if isinstance(value, np.ndarray | np.generic):
+        return value.tolist()
+    return value
+
+
+@functools.cache
+def _vocabulary(track: str) -> str:
+    """The track's vocabulary, asked once per track (sampling scenarios can be slow)."""
+    return load_track(track).vocabulary()
+
+
 def _same(a: Any, b: Any) -> bool:
     """Equality that also holds for numpy arrays nested in mappings and sequences."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
@@ -179,15 +208,21 @@ class TrackConformance:
             seed=self.seed if seed is None else seed, split=self._split(), params=self.params
         )
 
-    def _run(self, actions_seed: int) -> tuple[list[str], list[StepOutcome], TrackEpisode]:
-        """Plays one episode the way the host does; returns state hashes and outcomes."""
+    def _run(self, actions_seed: int, checks: EpisodeChecks | None = None
+             ) -> tuple[list[str], list[StepOutcome], TrackEpisode]:
+        """Plays one episode the way the host does, feeding ``checks`` (a track's audit)
+        what the agent is shown as ``eagc audit`` would; returns state hashes and
+        outcomes."""
         plugin = self.plugin
         episode = plugin.make_episode(self._scenario())
         rng = np.random.default_rng(actions_seed)
         hashes: list[str] = []
         outcomes: list[StepOutcome] = []
         try:
-            check_observation(episode.observation_spec, episode.reset(), "reset()")
+            first = episode.reset()
+            check_observation(episode.observation_spec, first, "reset()")
+            if checks is not None:
+                checks.observe(0, first.data, first.tensors)
             hashes.append(episode.state_hash())
             over = False
             for stage in plugin.stages():
@@ -195,6 +230,8 @@ class TrackConformance:
                 assert isinstance(messages, tuple) and all(
                     isinstance(m, HostMessage) for m in messages
                 ), f"on_stage_start({stage.name!r}) must return a tuple of HostMessage"
+                for m in messages if checks is not None else ():
+                    checks.message(len(outcomes), m)
                 for _ in range(self.steps_per_stage):
                     action = check_action(
                         episode.action_spec, sample_action(episode.action_spec, rng)
@@ -207,6 +244,8 @@ class TrackConformance:
                     assert all(isinstance(e, Mapping) for e in out.events), where
                     outcomes.append(out)
                     hashes.append(episode.state_hash())
+                    if checks is not None:
+                        self._feed(checks, len(outcomes), action, out)
                     if out.episode_over:
                         over = True
                         break
@@ -221,6 +260,28 @@ class TrackConformance:
             episode.close()
             raise
         return hashes, outcomes, episode
+
+    @staticmethod
+    def _feed(checks: EpisodeChecks, step: int, action: Mapping[str, Any],
+              out: StepOutcome) -> None:
+        checks.observe(step, out.observation.data, out.observation.tensors)
+        for m in out.messages:
+            checks.message(step, m)
+        if out.action is not None:
+            checks.action(step, {k: _plain(v) for k, v in action.items()}, out.action)
+
+    def _audited(self, checks: EpisodeChecks) -> list[Finding]:
+        """What ``checks`` find on an episode of random actions, with the example files."""
+        _, outcomes, episode = self._run(actions_seed=3, checks=checks)
+        episode.close()
+        scenario = self._scenario()
+        record = ScenarioRecord(episode="conformance", track=scenario.track,
+                                split=scenario.split, seed=scenario.seed,
+                                params=json.loads(json.dumps(dict(scenario.params))))
+        steps = len(outcomes)
+        return checks.findings(AuditInput(
+            scenario=record, events=(), log=(), host=HostSteps(steps),
+            snapshots=(Snapshot("final", steps, self._example_files()),)))
 
     def _scoring_input(self, *, started: bool) -> ScoringInput[Any, Any]:
         """An episode in which the agent did nothing (never started, or sat still)."""
@@ -438,3 +499,22 @@ class TrackConformance:
         card = self.plugin.score(self._scoring_input(started=True))
         self._check_card(card)
         assert card == self.plugin.score(self._scoring_input(started=True))
+
+    # ------------------------------------------------------------------------ hooks
+    def test_audit_checks_are_fresh_and_read_an_episode(self):
+        checks = self.plugin.audit()
+        if checks is None:
+            return  # the replay and the log steps only
+        assert isinstance(checks, EpisodeChecks), (
+            f"audit() returned {type(checks).__name__}, not a plugins.EpisodeChecks")
+        assert self.plugin.audit() is not checks, "audit() must make fresh checks per episode"
+        findings = self._audited(checks)
+        assert all(isinstance(f, Finding) for f in findings), findings
+        again = self.plugin.audit()
+        assert again is not None and self._audited(again) == findings, (
+            "the same episode, different findings")
+
+    def test_vocabulary_fits_the_protocol_page(self):
+        words = _vocabulary(self.track)
+        assert isinstance(words, str), f"vocabulary() returned {type(words).__name__}"
+        assert "<!--" not in words, "an HTML comment in the vocabulary breaks the page's sections"

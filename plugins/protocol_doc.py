@@ -11,18 +11,19 @@ byte-exact example from the encoder, and, per installed track, the stages
 ``FieldSpec``s, sampled over several scenarios of every split, since a track's spec may
 depend on its scenario) and the files it collects; the contract's environment variables
 (``schemas.CONTAINER.variables()``), how log steps are numbered, the Python client's calls
-and ``TimeStep`` fields, and each track's vocabulary (failure reasons, reach, categories,
-affordances, planning messages; Track 2's packet keys, task-model names and how they are
-compared). Each generated section sits between
-``<!-- generated:NAME … -->`` and ``<!-- end generated:NAME -->``; a track without a section
-yet gets one before ``<!-- end tracks -->``. A test fails when the page and the code differ.
+and ``TimeStep`` fields; each track's section ends with its own words
+(``TrackPlugin.vocabulary``: Track 1's failure reasons, reach, categories, affordances and
+planning messages; Track 2's packet keys, task-model names and how they are compared).
+Each generated section sits between ``<!-- generated:NAME … -->`` and
+``<!-- end generated:NAME -->``; a track without a section yet gets one before
+``<!-- end tracks -->`` (tracks in the order of their names). A test fails when the page
+and the code differ.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import re
 import sys
 import types
@@ -38,7 +39,7 @@ import schemas
 from plugins._base import TrackPlugin
 from plugins._registry import available_tracks, load_track
 from schemas import _protocol as proto
-from simhost.host._episode import StageSpec
+from simhost.host import StageSpec
 
 DOC = Path(schemas.__file__).with_name("PROTOCOL.md")
 _ROOT = DOC.parent.parent
@@ -53,7 +54,6 @@ _SECTION = re.compile(
     r"(<!-- end generated:(?P=name) -->)",
     re.S,
 )
-_TRACK_ORDER = ("sanity", "track1", "track2")
 
 
 def _marker(name: str) -> str:
@@ -159,7 +159,7 @@ def _hex(data: bytes) -> str:
 
 def example_section() -> str:
     """A step request with one tensor, byte by byte, as the encoder writes it."""
-    from simhost._wire import encode
+    from simhost import encode
 
     velocity = np.array([0.5, -0.25], dtype=np.float32)
     mask = np.array([1, 0, 1], dtype=np.uint8)
@@ -195,25 +195,6 @@ def environment_section() -> str:
     for v in schemas.CONTAINER.variables():
         rows.append(f"| `{v.name}` | `{v.value}` | {_cell(v.meaning)} |")
     return "\n".join(rows) + "\n\nNothing else is in the environment.\n"
-
-
-def attribute_doc(cls: type, name: str) -> str:
-    """The docstring written under attribute ``name`` in ``cls``'s source (``""``)."""
-    import ast
-    import inspect
-    import textwrap
-
-    try:
-        tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
-    except (OSError, TypeError):
-        return ""
-    body = tree.body[0].body if tree.body and isinstance(tree.body[0], ast.ClassDef) else []
-    for here, after in zip(body, body[1:], strict=False):
-        if (isinstance(here, ast.AnnAssign) and isinstance(here.target, ast.Name)
-                and here.target.id == name and isinstance(after, ast.Expr)
-                and isinstance(after.value, ast.Constant) and isinstance(after.value.value, str)):
-            return " ".join(after.value.value.split())
-    return ""
 
 
 def log_steps_section() -> str:
@@ -394,11 +375,6 @@ def _by_split(tables: dict[str, str], what: str) -> list[str]:
     return out
 
 
-def _split_names(plugin: TrackPlugin) -> tuple[str, ...]:
-    names = getattr(plugin, "split_names", None)
-    return tuple(names()) if callable(names) else tuple(plugin.splits)
-
-
 def _parts(model: type[BaseModel]) -> list[type[BaseModel]]:
     """``model`` and the models its fields hold, depth first, each once."""
     out = [model]
@@ -436,183 +412,15 @@ def fields_table(models: Iterable[type[BaseModel]]) -> str:
     return "\n".join(rows)
 
 
-# ------------------------------------------------------------------- vocabularies
-def track1_vocabulary(plugin: TrackPlugin) -> str:
-    """Track 1's words and limits, from where they live: the failure reasons an action
-    result carries, and the reach and motion limits of every split."""
-    from simhost.worlds.track1._actions import REASONS
-
-    rows = ["| split | pick, use on an item (to its centre) | open, close, place, use "
-            "(to a footprint) | a door (to its centre) | `move` forward = 1 | "
-            "`move` turn = 1 |", "|---|---|---|---|---|---|"]
-    for split in _split_names(plugin):
-        c = plugin.hidden(plugin.make_scenario(
-            seed=0, split=split, params={}, index=0)).split.config
-        rows.append(f"| `{split}` | {c.reach:g} m | {c.furniture_reach:g} m | "
-                    f"{c.door_reach:g} m | {c.max_forward:g} m | "
-                    f"{math.degrees(c.max_turn):g}° |")
-    instruction = instruction_lines(plugin)
-    from simhost.worlds.track1 import _catalogue as cat
-
-    effects = ", ".join(f"`{a}` ({b} → {c})" for a, (b, c) in cat.AFFORDANCE_EFFECTS.items())
-    return "\n".join([
-        "Categories (`simhost.worlds.track1._catalogue`): rooms "
-        + ", ".join(f"`{x}`" for x in dict.fromkeys(cat.ROOM_TYPES)) + "; objects "
-        + ", ".join(f"`{x}`" for x in cat.OBJECT_CATEGORIES) + "; tools "
-        + ", ".join(f"`{x}`" for x in cat.TOOL_CATEGORIES) + "; containers "
-        + ", ".join(f"`{x}`" for x in cat.CONTAINER_CATEGORIES) + "; furniture "
-        + ", ".join(f"`{x}`" for x in cat.FURNITURE_CATEGORIES) + ". The graded inventory "
-        "(`objects` of `world_model.json`) counts objects and tools, not furniture or "
-        "containers (those go in `containers`). Affordances (`affordances`, the queries' "
-        f"`tools_for`), with the state each takes a target from and to: {effects}.",
-        "",
-        "Failure reasons an action result may carry (`ok` false; "
-        "`simhost.worlds.track1.REASONS`): " + ", ".join(f"`{r}`" for r in REASONS) + ".",
-        "",
-        "Reach (the robot's centre to the target) and motion per `move` step, by split:",
-        "",
-        *rows,
-        "",
-        *instruction,
-    ])
-
-
-def instruction_lines(plugin: TrackPlugin) -> list[str]:
-    """Track 1's planning messages (``instruction``, ``queries``): their keys, what each
-    holds (``plugins.track1._types.Task``'s attribute docs), the query kinds, and the
-    instruction of a sampled scenario as the host sends it."""
-    from plugins.track1 import _types
-
-    keys: dict[str, dict[str, list[str]]] = {}
-    example: dict[str, Any] = {}
-    for split in _split_names(plugin):
-        episode = plugin.make_episode(plugin.make_scenario(seed=0, split=split, params={},
-                                                           index=0))
-        try:
-            episode.reset()
-            for m in episode.on_stage_start("planning"):
-                for k in m.data:
-                    keys.setdefault(m.type, {}).setdefault(k, []).append(split)
-                if m.type == "instruction" and not example:
-                    example = dict(m.data)
-        finally:
-            episode.close()
-    splits = _split_names(plugin)
-    said = {"steps": attribute_doc(_types.Task, "steps").rstrip("."),
-            "substitutes": attribute_doc(_types.Task, "substitute_rule").rstrip(".")}
-
-    def cell(msg: str, k: str) -> str:
-        where = keys[msg][k]
-        only = "" if len(where) == len(splits) else (
-            " (only on " + ", ".join(f"`{x}`" for x in where) + ")")
-        return f"`{k}`{only}" + (f": {said[k]}" if msg == "instruction" and k in said else "")
-
-    kinds = ", ".join(f"`{k}`" for k in get_args(_types.QueryKind))
-    return [
-        "Planning messages (sampled on every split): `instruction` holds "
-        + "; ".join(cell("instruction", k) for k in keys.get("instruction", {}))
-        + ". `queries` holds " + "; ".join(cell("queries", k) for k in keys.get("queries", {}))
-        + f"; each query has an `id`, a `kind` ({kinds}), its `text` and the description's "
-        "fields. For example (seed 0, split " + f"`{splits[0]}`):",
-        "",
-        "```json",
-        json.dumps({k: v for k, v in example.items()}, indent=1, ensure_ascii=False),
-        "```",
-    ]
-
-
-def track2_vocabulary(plugin: TrackPlugin) -> str:
-    """Track 2's task-model names, per family, from the truths of sampled instances (what
-    ``task_model.json`` is compared with), and how values are compared."""
-    from plugins.track2._scoring import close
-    from simhost.worlds.track2 import task_truth
-
-    split = next(iter(plugin.splits))
-    truths: dict[str, Any] = {}
-    for i in range(SAMPLES):
-        s = plugin.hidden(plugin.make_scenario(
-            seed=i, split=split, params={"demo_frames": False}, index=i))
-        truths.setdefault(s.family, task_truth(s.instance, s.bench))
-    rows = ["| family | stages | variables | constraints | preconditions | success |",
-            "|---|---|---|---|---|---|"]
-    for family, t in sorted(truths.items()):
-        pre = "; ".join(f"`{k}`: " + ", ".join(f"`{r}`" for r in v)
-                        for k, v in t.preconditions.items())
-        rows.append(
-            f"| `{family}` | " + " ".join(f"`{x}`" for x in t.stages) + " | "
-            + ", ".join(f"`{v.name}`" for v in t.state_variables) + " | "
-            + ", ".join(f"`{c.name}`" for c in t.constraints) + f" | {pre or '—'} | "
-            + ", ".join(f"`{c.variable} {c.op}`" for c in t.success) + " |")
-    examples = [(0.0105, 0.01), (0.011, 0.01), (0.012, 0.01), (1.1, 1.0), ([1.0, 2.2],
-                [1.0, 2.0]), (True, True), ("Peg", "peg")]
-    cases = "; ".join(f"`{json.dumps(p)}` for `{json.dumps(t)}`: {close(p, t):.2f}"
-                      for p, t in examples)
-    from plugins.track2 import _scoring
-
-    rule = next(" ".join(b.split()) for b in (_scoring.__doc__ or "").split("\n- ")
-                if b.startswith("``task_model``"))
-    weights = ", ".join(f"{k} {w:g}" for k, w in _scoring.MODEL_WEIGHTS.items())
-    return "\n".join([
-        *packet_keys(plugin, split),
-        f"Task-model names per family (the truths of sampled `{split}` instances; "
-        "`simhost.worlds.track2.task_truth`): a model of another family scores 0.",
-        "",
-        *rows,
-        "",
-        "How a model is compared with the truth (`plugins.track2._scoring`, weights "
-        f"`MODEL_WEIGHTS`: {weights}): {rule.removeprefix('``task_model``: ')}",
-        "",
-        "Values (constraints, success criteria) are compared by "
-        "`plugins.track2._scoring.close`, credit in [0, 1]; for example " + cases + ".",
-    ])
-
-
-def packet_keys(plugin: TrackPlugin, split: str) -> list[str]:
-    """The arrays of the demonstration packet's ``trajectory.npz`` (written for sampled
-    instances of every family; T is the number of actions)."""
-    import tempfile
-
-
-    shapes: dict[str, dict[str, str]] = {}
-    for i in range(SAMPLES):
-        scenario = plugin.make_scenario(seed=i, split=split, params={"demo_frames": False},
-                                        index=i)
-        family = plugin.hidden(scenario).family
-        with tempfile.TemporaryDirectory(prefix="eagc-doc-") as tmp:
-            plugin.write_inputs(scenario, Path(tmp))
-            with np.load(next(Path(tmp).rglob("trajectory.npz"))) as z:
-                steps = len(z["actions"]) if "actions" in z.files else -1
-                for key in z.files:
-                    a = z[key]
-                    lead = {steps: "T", steps + 1: "T+1"}.get(a.shape[0], str(a.shape[0])) \
-                        if a.shape else ""
-                    dims = " × ".join([lead, *map(str, a.shape[1:])]) if a.shape else "scalar"
-                    shapes.setdefault(key, {})[family] = f"{a.dtype} {dims}"
-    rows = ["| array | dtype and shape |", "|---|---|"]
-    for key, by in shapes.items():
-        kinds = set(by.values())
-        cell = next(iter(kinds)) if len(kinds) == 1 else "; ".join(
-            f"{f}: {v}" for f, v in sorted(by.items()))
-        rows.append(f"| `{key}` | {cell} |")
-    return ["The demonstration packet's `trajectory.npz` (`$EAGC_INPUT/demo`, beside "
-            "`manifest.json`, [`DemoManifest`](json/demo_manifest.json)); T is the number "
-            "of actions:", "", *rows, ""]
-
-
-#: Track → its vocabulary section (the words its scores and results use).
-VOCABULARY: dict[str, Callable[[TrackPlugin], str]] = {
-    "track1": track1_vocabulary, "track2": track2_vocabulary}
-
-
 def track_section(name: str) -> str:
     plugin = load_track(name)
     observations: dict[str, str] = {}
     actions: dict[str, str] = {}
-    for split in _split_names(plugin):
+    for split in plugin.split_names():
         obs, act = sample_specs(plugin, split)
         observations[split] = spec_table(obs, observation=True)
         actions[split] = spec_table(act, observation=False)
-    extra = [s for s in _split_names(plugin) if s not in plugin.splits]
+    extra = [s for s in plugin.split_names() if s not in plugin.splits]
     files = ["| file | schema | required |", "|---|---|---|"]
     for fname, rule in plugin.files.items():
         if rule.jsonl:
@@ -650,7 +458,7 @@ def track_section(name: str) -> str:
         "",
         fields_table([r.model or schemas.LogRecord for r in plugin.files.values()]),
         "",
-        *([VOCABULARY[name](plugin), ""] if name in VOCABULARY else []),
+        *([words, ""] if (words := plugin.vocabulary().rstrip()) else []),
     ])
 
 
@@ -666,9 +474,7 @@ def sections(tracks: Iterable[str] | None = None) -> dict[str, Callable[[], str]
         "log-steps": log_steps_section,
         "client": client_section,
     }
-    names = list(tracks if tracks is not None else available_tracks())
-    names.sort(key=lambda n: (_TRACK_ORDER.index(n) if n in _TRACK_ORDER else 99, n))
-    for t in names:
+    for t in sorted(tracks if tracks is not None else available_tracks()):
         out[f"track:{t}"] = lambda t=t: track_section(t)
     return out
 

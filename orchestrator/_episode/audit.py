@@ -8,14 +8,13 @@ does not keep, such as the segmentation image), and checks the agent's files:
 - **log steps** (every track, ``log_step_findings``): each ``episode_log.jsonl`` record's
   ``step`` against the host's step count: never past the steps the host had served, and
   within the steps of the stage the record names; a ``world_model.json``'s ``step`` alike.
-- **the track's checks**, when its package ships an ``audit`` module (``plugins.<track>.
-  audit``, e.g. Track 1's early detections and ids never shown) with ``Shown`` (what the
-  agent was shown, fed step by step: ``observe(step, data, tensors)``, ``message(step,
-  message)`` with a ``schemas.HostMessage``, ``action(step, action, result)`` with the
-  checked action and a ``schemas.ActionResult``), ``Snapshot(name, step, files)`` and
-  ``check_episode(shown, scenario_params=, events=, snapshots=, log=)`` (``events``: the
-  ``simhost.host._records`` event models, in log order) returning flags
-  (``check``, ``severity``, ``message``, ``step``, ``subjects``).
+- **the track's checks**, when its plugin has some (``TrackPlugin.audit``: a fresh
+  ``plugins.EpisodeChecks`` per episode, e.g. Track 1's early detections and ids never
+  shown): fed what the agent was shown, step by step (``observe(step, data, tensors)``,
+  ``message(step, message)`` with a ``schemas.HostMessage``, ``action(step, action,
+  result)`` with the checked action and a ``schemas.ActionResult``), then asked for its
+  ``findings`` on a ``plugins.AuditInput`` (the scenario, the host's events in log order,
+  the snapshots, the final log's records, the host's steps).
 
 What the agent was shown comes from the log's replies (observation JSON, messages, action
 results) and small tensors, and from the replay's observations (every tensor, the
@@ -27,20 +26,27 @@ team-facing report can say the same from the same code.
 
 from __future__ import annotations
 
-import importlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, computed_field
 
 from orchestrator._episode.replay import ReplayError, replay
-from plugins import load_track
-from plugins._audit import STEP_SLACK, Finding, HostSteps, Severity, log_step_findings
+from plugins import (
+    STEP_SLACK,
+    AuditInput,
+    EpisodeChecks,
+    Finding,
+    HostSteps,
+    Severity,
+    Snapshot,
+    load_track,
+    log_step_findings,
+)
 from schemas import LogRecord, ObservationReply, SchemaError, parse_episode_log
-from simhost.host._records import (
+from simhost.host import (
     HostEventModel,
     McapRecordError,
     ScenarioRecord,
@@ -94,16 +100,10 @@ class EpisodeAuditError(ReplayError):
     """Raised when an episode folder has no readable log to audit."""
 
 
-def track_checks(track: str) -> ModuleType | None:
-    """The track's audit module (``<its package>.audit``), or None when it ships none."""
-    package = type(load_track(track)).__module__.rpartition(".")[0]
-    try:
-        module = importlib.import_module(f"{package}.audit")
-    except ModuleNotFoundError as e:
-        if e.name != f"{package}.audit":
-            raise
-        return None
-    return module if hasattr(module, "Shown") and hasattr(module, "check_episode") else None
+def track_checks(track: str) -> EpisodeChecks | None:
+    """A fresh set of the track's own checks for one episode (``TrackPlugin.audit``), or
+    None when it has none."""
+    return load_track(track).audit()
 
 
 @dataclass
@@ -115,8 +115,8 @@ class _Log:
     host: HostSteps
 
 
-def _read_log(path: Path, shown: Any) -> _Log:
-    """Reads the log once, feeding ``shown`` (None: no track checks) as it goes."""
+def _read_log(path: Path, checks: EpisodeChecks | None) -> _Log:
+    """Reads the log once, feeding ``checks`` (None: no track checks) as it goes."""
     scenario: ScenarioRecord | None = None
     events: list[HostEventModel] = []
     steps = 0
@@ -135,15 +135,15 @@ def _read_log(path: Path, shown: Any) -> _Log:
             case StageEndEvent(stage=stage) as event:
                 events.append(event)
                 stages.setdefault(stage, [steps, steps])[1] = steps
-            case ObservationReply() as reply if shown is not None:
-                shown.observe(steps, reply.observation, {})
+            case ObservationReply() as reply if checks is not None:
+                checks.observe(steps, reply.observation, {})
                 for m in reply.messages:
-                    shown.message(steps, m)
+                    checks.message(steps, m)
                 if action is not None and reply.action is not None:
-                    shown.action(steps, action, reply.action)
+                    checks.action(steps, action, reply.action)
                 action = None
-            case SmallTensors(values=tensors) if shown is not None:
-                shown.observe(steps, {}, tensors)
+            case SmallTensors(values=tensors) if checks is not None:
+                checks.observe(steps, {}, tensors)
             case body if record.topic == "/eagc/event":
                 events.append(body)
     if scenario is None:
@@ -193,16 +193,15 @@ def audit_episode(folder: Path | str, *, verify: bool = True) -> EpisodeAudit:
                 f"{mcap}: no /eagc/scenario message: not an eagc episode log")
         track = first.track
         checks = track_checks(track)
-        shown = checks.Shown() if checks is not None else None
-        log = _read_log(mcap, shown)
+        log = _read_log(mcap, checks)
     except McapRecordError as e:
         raise EpisodeAuditError(str(e)) from None
 
     check: ReplayCheck | None = None
     if verify:
         def seen(steps: int, obs: Any) -> None:
-            if shown is not None:
-                shown.observe(steps, {}, obs.tensors)
+            if checks is not None:
+                checks.observe(steps, {}, obs.tensors)
 
         try:
             report = replay(mcap, on_observation=seen)
@@ -214,25 +213,23 @@ def audit_episode(folder: Path | str, *, verify: bool = True) -> EpisodeAudit:
             check = ReplayCheck(ok=False, error=f"{type(e).__name__}: {e}".splitlines()[0])
 
     findings: list[Finding] = []
-    snapshots: list[tuple[str, int, dict[str, bytes]]] = []
+    snapshots: list[Snapshot] = []
     for stage in log.host.stages:
         files = _files(folder / "host" / "snapshots" / stage)
         if files:
-            snapshots.append((stage, log.host.at_end(stage), files))
+            snapshots.append(Snapshot(stage, log.host.at_end(stage), files))
     final = _files(folder / "host" / "output")
-    snapshots.append(("final", log.host.total, final))
-    for name, step, files in snapshots:
-        bad = _world_model_step(name, files.get("world_model.json"), step)
+    snapshots.append(Snapshot("final", log.host.total, final))
+    for snap in snapshots:
+        bad = _world_model_step(snap.name, snap.files.get("world_model.json"), snap.step)
         if bad is not None:
             findings.append(bad)
     records, problem = _log_records(final.get("episode_log.jsonl"))
     findings += [problem] if problem is not None else log_step_findings(records, log.host)
     if checks is not None:
-        flags = checks.check_episode(
-            shown, scenario_params=log.scenario.params, events=log.events,
-            snapshots=[checks.Snapshot(n, s, f) for n, s, f in snapshots], log=records)
-        findings += [Finding(check=f.check, severity=f.severity, message=f.message,
-                             step=f.step, subjects=f.subjects) for f in flags]
+        findings += checks.findings(AuditInput(
+            scenario=log.scenario, events=tuple(log.events), snapshots=tuple(snapshots),
+            log=tuple(records), host=log.host))
     return EpisodeAudit(episode=log.scenario.episode,
                         folder=str(folder), track=track, host_steps=log.host.total,
                         replay=check, findings=tuple(findings))

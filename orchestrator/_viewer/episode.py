@@ -5,9 +5,14 @@ poses), ``host/output/episode_log.jsonl``, ``host/snapshots/<stage>/*.json`` and
 ``host/agent.log``. The team's view (``organizer=False``) keeps what the team may see: no
 seed, no scenario parameters, no organizer path, and of the host's events only their
 name, stage, step and outcome (an exception's type and step, never its subject or place).
-Track 1's map is the house's plan without the objects and tools (the items a world model
-inventories). The organizer's view adds the hidden scenario, the items, the track's own
-picture of the episode and the graded model against the truth.
+
+What only a track knows it adds through its plugin's hooks (``plugins._views``), each given
+a ``plugins.RecordedEpisode`` that says whose view it is: the map under the path
+(``episode_map``; Track 1: the house's plan, without the objects and tools in a team's
+view), pictures of spans of steps (``step_pictures``; Track 2: each attempt beside the
+demonstration) and, for organizers, the track's own picture of the episode (``picture``)
+and the agent's model against the truth (``truth``). The organizer's view adds the hidden
+scenario.
 """
 
 from __future__ import annotations
@@ -20,8 +25,9 @@ from typing import Any
 import numpy as np
 
 from orchestrator._viewer import frames as fr
-from schemas import EpisodeResult, ErrorReply, HelloReply, ObservationReply
-from simhost.host._records import (
+from plugins import RecordedEpisode, TrackPlugin, load_track
+from schemas import EpisodeResult, ObservationReply, SchemaError
+from simhost.host import (
     CompressedImage,
     FrameTransforms,
     FullState,
@@ -30,7 +36,6 @@ from simhost.host._records import (
     OutputFile,
     RawImage,
     ScenarioRecord,
-    SmallTensors,
     StageEndEvent,
     StageStartEvent,
     StateHash,
@@ -88,7 +93,9 @@ class EpisodeView:
     map_image: str | None = None
     #: The map's transform: pixel = (ox + x * scale, oy - y * scale); width, height.
     map_frame: dict[str, float] | None = None
-    attempts: list[dict[str, Any]] = field(default_factory=list)
+    map_caption: str = ""
+    #: Pictures of spans of steps (``from``, ``to``, ``caption``, ``image``).
+    pictures: list[dict[str, Any]] = field(default_factory=list)
     snapshots: list[Snapshot] = field(default_factory=list)
     log_tail: str = ""
     hidden: str | None = None
@@ -96,6 +103,7 @@ class EpisodeView:
     #: Organizers only: the graded model against the hidden truth (``truth``).
     truth: list[str] = field(default_factory=list)
     truth_of: str = ""
+    truth_note: str = ""
     problems: list[str] = field(default_factory=list)
 
 
@@ -114,12 +122,17 @@ def read_episode(folder: Path, *, organizer: bool) -> EpisodeView:
     _snapshots(host, result, view)
     _log_tail(host, result, view)
     if log.scenario is not None:
-        _map(folder, log, view)
-    if organizer and log.scenario is not None:
-        view.hidden = json.dumps(log.scenario.model_dump(mode="json", exclude_unset=True),
-                                 indent=2, default=str)
-        _track_picture(folder, result, view)
-        _truth(host, log.scenario, view)
+        episode = RecordedEpisode(folder=folder, scenario=log.scenario, organizer=organizer)
+        plugin = _plugin(log.scenario.track, view)
+        if plugin is not None:
+            _map(plugin, episode, view)
+        if organizer:
+            view.hidden = json.dumps(log.scenario.model_dump(mode="json",
+                                                             exclude_unset=True),
+                                     indent=2, default=str)
+            if plugin is not None:
+                _track_picture(plugin, folder, view)
+                _truth(plugin, episode, view)
     view.events.sort(key=lambda e: (e.step, {"host": 0, "action": 1, "agent": 2}[e.source]))
     return view
 
@@ -152,8 +165,6 @@ class _Log:
     """What the page reads of the MCAP log besides what it puts on the view."""
 
     scenario: ScenarioRecord | None = None
-    #: Track 2: the hand's path (step, x, y, z) in each attempt of the execution stage.
-    attempts: dict[int, list[list[float]]] = field(default_factory=dict)
 
 
 def _read_log(mcap: Path, view: EpisodeView) -> _Log:
@@ -162,7 +173,6 @@ def _read_log(mcap: Path, view: EpisodeView) -> _Log:
     stages: list[_Stage] = []
     cameras: dict[int, _Camera] = {}
     path: list[list[float]] = []
-    attempt: int | None = None
     problems: list[McapRecordError] = []
     for record in read_records(mcap, on_problem=problems.append):
         match record.body:
@@ -172,20 +182,11 @@ def _read_log(mcap: Path, view: EpisodeView) -> _Log:
                 log.scenario = scenario
             case StateHash() as hashed:
                 step = hashed.step
-            case HelloReply() | ErrorReply():
-                attempt = None
             case ObservationReply() as reply:
                 stage = reply.stage or stage
                 if reply.action is not None and not reply.action.ok:
                     view.events.append(Event(step, "action", "action failed",
                                              reply.action.reason or "no reason given", stage))
-                attempt = None
-                if reply.stage == "execution" and "attempt" in reply.observation:
-                    attempt = int(reply.observation["attempt"] or 0) or None
-            case SmallTensors() as tensors if attempt is not None:
-                proprio = tensors.vector("proprio")
-                if proprio:
-                    log.attempts.setdefault(attempt, []).append([step, *proprio[:3]])
             case FrameTransforms() as tf:
                 robot = tf.of("robot")
                 if robot is not None:
@@ -205,8 +206,6 @@ def _read_log(mcap: Path, view: EpisodeView) -> _Log:
     while len(path) > MAX_PATH:
         path = path[::2]
     view.path = [[s, round(x, 3), round(y, 3)] for s, x, y in path]
-    view.attempts = [{"attempt": k, "from": int(p[0][0]), "to": int(p[-1][0])}
-                     for k, p in sorted(log.attempts.items())]
     view.frames = fr.page_frames([_frame(c) for _, c in sorted(cameras.items())])
     return log
 
@@ -351,90 +350,53 @@ def _log_tail(host: Path, result: EpisodeResult, view: EpisodeView) -> None:
     view.log_tail = "\n".join(text.rstrip().splitlines()[-LOG_TAIL_LINES:])
 
 
-# ------------------------------------------------------------------------------ pictures
-def _map(folder: Path, log: _Log, view: EpisodeView) -> None:
-    """Track 1: the house from above (the path is drawn over it by the page); Track 2: each
-    attempt beside the demonstration."""
-    assert log.scenario is not None
+# ------------------------------------------------------------------- the track's hooks
+def _plugin(track: str, view: EpisodeView) -> TrackPlugin | None:
     try:
-        if log.scenario.track == "track1":
-            _house(log.scenario, view)
-        elif log.scenario.track == "track2" and view.attempts:
-            _attempts(folder, log.attempts, view)
+        return load_track(track)
+    except Exception as e:  # noqa: BLE001 - a page without the track's parts is a page
+        view.problems.append(f"no map, pictures or truth: {e}")
+        return None
+
+
+def _map(plugin: TrackPlugin, episode: RecordedEpisode, view: EpisodeView) -> None:
+    """The track's map under the path, and its pictures of spans of steps."""
+    try:
+        shown = plugin.episode_map(episode)
+        if shown is not None:
+            height, width = shown.rgb.shape[:2]
+            view.map_image = fr.data_uri(fr.encode_png(np.asarray(shown.rgb, np.uint8)))
+            view.map_frame = {"ox": shown.ox, "oy": shown.oy, "scale": shown.scale,
+                              "width": width, "height": height}
+            view.map_caption = shown.caption
+        view.pictures = [{"from": p.first_step, "to": p.last_step, "caption": p.caption,
+                          "image": fr.data_uri(p.png)}
+                         for p in plugin.step_pictures(episode)]
     except Exception as e:  # noqa: BLE001 - a page without its map is still a page
         view.problems.append(f"no map: {type(e).__name__}: {e}")
 
 
-def _house(scenario: ScenarioRecord, view: EpisodeView) -> None:
-    from plugins.track1 import Track1
-    from simhost.worlds.track1 import TOPDOWN_MARGIN, TOPDOWN_SCALE, generate_house, render_topdown
-
-    spec = Track1().hidden(scenario)
-    layout = generate_house(scenario.seed, params=spec.split.params)
-    if view.organizer:
-        img = render_topdown(layout)
-    else:  # the plan without the items the world model inventories
-        img = render_topdown(_Plan(layout))
-    height = float(layout.extent[1])
-    view.map_image = fr.data_uri(fr.encode_png(np.asarray(img, np.uint8)[:, :, :3]))
-    view.map_frame = {"ox": TOPDOWN_MARGIN, "oy": TOPDOWN_MARGIN + height * TOPDOWN_SCALE,
-                      "scale": TOPDOWN_SCALE, "width": img.shape[1], "height": img.shape[0]}
-
-
-class _Plan:
-    """A house for ``render_topdown`` as generated, without its objects and tools."""
-
-    def __init__(self, layout: Any) -> None:
-        self.layout = layout
-
-    def ground_truth(self) -> Any:
-        from simhost.worlds.track1 import initial_ground_truth
-
-        return initial_ground_truth(self.layout).model_copy(update={"objects": ()})
-
-
-def _attempts(folder: Path, paths: dict[int, list[list[float]]], view: EpisodeView) -> None:
-    from simhost.worlds.track2 import render_attempt_vs_demo
-
-    demo = folder / "input" / "demo"
-    if not (demo / "manifest.json").is_file():
-        view.problems.append("no demonstration in this episode folder (input/demo)")
-        return
-    for (k, path), shown in zip(sorted(paths.items()), view.attempts, strict=True):
-        xyz = np.asarray([p[1:] for p in path])
-        png = render_attempt_vs_demo(demo, xyz, title=f"ATTEMPT {k}")
-        shown.update(image=fr.data_uri(png))
-
-
-def _truth(host: Path, scenario: ScenarioRecord, view: EpisodeView) -> None:
-    """Track 1: the world model graded at the end of exploration against the house."""
-    from orchestrator._viewer.truth import track1_differences
-    from schemas import SchemaError, WorldModel, parse_json
-
-    graded = host / "snapshots" / "exploration" / "world_model.json"
-    if scenario.track != "track1" or not graded.is_file():
-        return
+def _truth(plugin: TrackPlugin, episode: RecordedEpisode, view: EpisodeView) -> None:
+    """The track's comparison of the agent's model with the hidden truth."""
     try:
-        model = parse_json(graded.read_bytes(), WorldModel, source="world_model.json")
+        report = plugin.truth(episode)
     except SchemaError as e:
         view.problems.append(f"no model-vs-truth comparison: {e.summary}")
         return
-    try:
-        view.truth = track1_differences(scenario, model)
-        view.truth_of = "exploration · world_model.json"
     except Exception as e:  # noqa: BLE001 - the rest of the page stands without it
         view.problems.append(f"no model-vs-truth comparison: {type(e).__name__}: {e}")
+        return
+    if report is not None:
+        view.truth, view.truth_of, view.truth_note = list(report.lines), report.of, report.note
 
 
-def _track_picture(folder: Path, result: EpisodeResult, view: EpisodeView) -> None:
+def _track_picture(plugin: TrackPlugin, folder: Path, view: EpisodeView) -> None:
     """The track's own picture of the episode (organizers: it marks the hidden goals)."""
     import tempfile
 
-    from plugins import load_track
-
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            out = load_track(result.track).picture(folder, Path(tmp) / "picture.png")
+            out = plugin.picture(folder, Path(tmp) / "picture.png")
             view.picture = fr.data_uri(out.read_bytes())
     except Exception as e:  # noqa: BLE001 - tracks without pictures, broken logs
         view.problems.append(f"no track picture: {e}")

@@ -49,7 +49,7 @@ def _write(path: Path, text: str) -> Path:
 def episode_page(view: EpisodeView, *, back: str | None, back_text: str) -> str:
     """The HTML of one episode's page."""
     data = {"last_step": view.last_step, "stages": view.stages, "frames": view.frames,
-            "path": view.path, "map": view.map_frame, "attempts": view.attempts}
+            "path": view.path, "map": view.map_frame, "pictures": view.pictures}
     return _env().get_template("episode.html").render(
         v=view, r=view.result, data=data, back=back, back_text=back_text)
 

@@ -14,7 +14,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from plugins._picture_log import read_episode, title_lines
-from simhost.host._records import ExceptionEvent
+from simhost.host import ExceptionEvent
 
 HALF = 2.0  # the arena's walls at ±2 m
 SCALE = 80  # pixels per metre
@@ -59,7 +59,7 @@ def _polyline(img: np.ndarray, points: list[list[float]], colour: Colour) -> Non
 
 def path_png(episode_dir: str | Path) -> Path:
     """Draws a sanity episode from ``host/episode.mcap``; writes ``host/path.png``."""
-    from simhost.host._png import write_png
+    from simhost.host import write_png
     from simhost.worlds.track1 import draw_text
 
     host = Path(episode_dir) / "host"

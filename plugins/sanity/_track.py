@@ -20,11 +20,19 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, SerializerFunctionWrapHandler, model_serializer
 
-from plugins._base import EPISODE_LOG, FileRule, Scenario, ScoringInput, TrackPlugin
-from schemas import EndReason, FieldSpec, ScoreCard, WorldModel
-from schemas._io import ignored_note
-from schemas._protocol import ActionResult, HostMessage
-from simhost.host._episode import (
+from plugins._base import HiddenScenario, Scenario, ScoringInput, TrackPlugin
+from plugins._files import EPISODE_LOG, FileRule
+from plugins.sanity._picture import path_png
+from schemas import (
+    ActionResult,
+    EndReason,
+    FieldSpec,
+    HostMessage,
+    ScoreCard,
+    WorldModel,
+    ignored_note,
+)
+from simhost.host import (
     EpisodeOutcome,
     Observation,
     Pose,
@@ -53,7 +61,7 @@ class SanitySplitParams(BaseModel):
     """Width, height of the camera's images."""
 
 
-class SanityScenario(BaseModel):
+class SanityScenario(HiddenScenario):
     """One hidden sanity scenario (``Scenario.params`` as JSON; the camera's fields only
     when it renders)."""
 
@@ -310,8 +318,6 @@ class SanityTrack(TrackPlugin[SanityScenario, SanityOutcome]):
 
     def picture(self, episode_dir: Path, out: Path | None = None) -> Path:
         """The arena from above: the robot's path by stage, its start and the target."""
-        from plugins.sanity._picture import path_png
-
         path = path_png(episode_dir)
         if out is not None and out != path:
             out.parent.mkdir(parents=True, exist_ok=True)

@@ -21,7 +21,7 @@ import numpy as np
 
 from plugins._picture_log import read_episode, title_lines
 from plugins.track1._types import Task, Track1Scenario
-from simhost.host._records import ExceptionEvent, HostEventModel, ScenarioRecord
+from simhost.host import ExceptionEvent, HostEventModel, ScenarioRecord
 
 ITEM, GOAL, EXCEPTION = (220, 0, 200), (0, 170, 210), (220, 20, 20)
 STAGE_COLOURS = {"exploration": (30, 90, 220), "planning": (120, 120, 120),
@@ -182,9 +182,7 @@ def trajectory_png(episode_dir: str | Path) -> Path:
     scenario, poses, total = log.scenario, log.poses, log.total
     if scenario.track != "track1":
         raise ValueError(f"{mcap} is a {scenario.track!r} episode, not track1")
-    from plugins.track1._track import Track1
-
-    spec = Track1().hidden(scenario)
+    spec = Track1Scenario.of(scenario)
     layout = generate_house(scenario.seed, params=spec.split.params)
     img = render_topdown(layout)
     overlay = _Overlay(img, layout.extent[1])

@@ -34,7 +34,7 @@ does nothing scores about 0 on every component).
 
 On a split without a detector (``vision``) the world-model files and the ``tools_for``
 answers use the agent's own ids: ``_matching`` renames them to the true ids they pair with
-by category and position before any of the above is computed (``own_ids``).
+by category and position before any of the above is computed (``_types.own_ids``).
 
 The card's notes say where credit was thrown away (``credit_notes``), with the audit's own
 checks (``plugins.track1.audit``: ``detection_flags``, ``world_model_flags``) on what the
@@ -61,7 +61,13 @@ from plugins.track1._matching import (
     rename_answer,
 )
 from plugins.track1._queries import f1, score_answer
-from plugins.track1._types import ExceptionRecord, GradedQuery, Track1Outcome, Track1Scenario
+from plugins.track1._types import (
+    ExceptionRecord,
+    GradedQuery,
+    Track1Outcome,
+    Track1Scenario,
+    own_ids,
+)
 from plugins.track1.audit import (
     Shown,
     Timeline,
@@ -70,8 +76,7 @@ from plugins.track1.audit import (
     detection_flags,
     world_model_flags,
 )
-from schemas import LogRecord, ScoreCard, WorldModel
-from schemas._io import ignored_note
+from schemas import LogRecord, ScoreCard, WorldModel, ignored_note
 from simhost.worlds.track1 import HouseTruth
 
 WEIGHTS = {"task": 0.40, "model": 0.20, "recovery": 0.20, "efficiency": 0.10, "safety": 0.10}
@@ -336,7 +341,7 @@ def credit_notes(data: ScoringInput[Track1Scenario, Track1Outcome], o: Track1Out
     snapshot = data.snapshot(EXPLORATION, "world_model.json", WorldModel)
     graded = snapshot if graded is None else graded
     notes = detection_notes(o, log, data.scenario.params)
-    if own_ids(data):  # vision: nothing was shown by id; entries pair by position instead
+    if own_ids(data.scenario):  # vision: nothing was shown by id; entries pair by position
         notes += unmatched_notes(graded)
     else:
         notes += unseen_notes(graded, shown_from(o.shown),
@@ -369,20 +374,6 @@ def unmatched_notes(graded: WorldModel | None) -> list[str]:
             "): graded as unknown ids"]
 
 
-def own_ids(data: ScoringInput[Track1Scenario, Track1Outcome]) -> bool:
-    """Whether the split shows no ids (no detector: ``vision``): the files then use the
-    agent's own ids, which the score matches to the truth's (``_matching``)."""
-    from pydantic import ValidationError
-
-    from plugins.track1._track import Track1
-
-    try:
-        hidden = Track1().hidden(data.scenario)
-    except ValidationError:
-        return False
-    return not hidden.split.config.detections
-
-
 def regraded(queries: Sequence[GradedQuery], ids: IdMatch) -> tuple[GradedQuery, ...]:
     """The queries with the answers that list the agent's tool ids (``tools_for``) read
     under the true ids the exploration snapshot matched."""
@@ -404,7 +395,7 @@ def score(data: ScoringInput[Track1Scenario, Track1Outcome], track: str) -> Scor
     queries: Sequence[GradedQuery] = o.queries
     if snapshot is None:
         notes.append("no valid world_model.json when exploration ended: model graded 0")
-    if own_ids(data):  # vision: the agent's ids, renamed to the truth's they match
+    if own_ids(data.scenario):  # vision: the agent's ids, renamed to the truth's they match
         ids = IdMatch() if snapshot is None or o.gt_exploration is None else \
             match(snapshot, o.gt_exploration)
         snapshot = None if snapshot is None else rename(snapshot, ids)

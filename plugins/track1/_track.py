@@ -22,12 +22,18 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, ClassVar
 
-from plugins._base import EPISODE_LOG, Column, FileRule, Scenario, ScoringInput, TrackPlugin
+from plugins._audit import EpisodeChecks
+from plugins._base import Scenario, ScoringInput, TrackPlugin
 from plugins._errors import PluginError
-from plugins.track1 import _score
+from plugins._files import EPISODE_LOG, FileRule
+from plugins._leaderboard import Column
+from plugins._views import EpisodeMap, RecordedEpisode, TruthReport
+from plugins.track1 import _score, _view, _vocabulary
 from plugins.track1._episode import EXECUTION, EXPLORATION, PLANNING, Track1Episode
+from plugins.track1._pictures import preview, trajectory_png
 from plugins.track1._scenario import build_scenario
 from plugins.track1._types import Track1Outcome, Track1Scenario
+from plugins.track1.audit import Track1Checks
 from schemas import EpisodeResult, ScoreCard, WorldModel
 from simhost import StageSpec, TrackEpisode
 
@@ -104,8 +110,6 @@ class Track1(TrackPlugin[Track1Scenario, Track1Outcome]):
 
     def picture(self, episode_dir: Path, out: Path | None = None) -> Path:
         """The robot's trajectory over the house, coloured by stage."""
-        from plugins.track1._pictures import trajectory_png
-
         path = trajectory_png(episode_dir)
         if out is not None and out != path:
             out.parent.mkdir(parents=True, exist_ok=True)
@@ -114,10 +118,25 @@ class Track1(TrackPlugin[Track1Scenario, Track1Outcome]):
 
     def preview(self, *, seed: int, split: str, out: Path) -> Path:
         """The top-down map with the task marked, beside the robot's first camera frame."""
-        from plugins.track1._pictures import preview
-
         scenario = self.make_scenario(seed=seed, split=split, params={})
         return preview(self.hidden(scenario), seed, split, out)[0]
+
+    def audit(self) -> EpisodeChecks:
+        """Ids, rooms and hidden states a world model names before anything showed them;
+        exceptions detected before anything could show them (``audit``)."""
+        return Track1Checks()
+
+    def episode_map(self, episode: RecordedEpisode) -> EpisodeMap:
+        """The house from above (a team's view: its plan, without the items)."""
+        return _view.house_map(episode)
+
+    def truth(self, episode: RecordedEpisode) -> TruthReport | None:
+        """The world model graded at the end of exploration against the house."""
+        return _view.model_against_truth(episode)
+
+    def vocabulary(self) -> str:
+        """Categories, affordances, failure reasons, reach, planning messages."""
+        return _vocabulary.vocabulary(self)
 
     def summarize(self, results: Sequence[EpisodeResult]) -> dict[str, float | None]:
         """Table IV's row: Std., Ch., Final (eq. 2), Task Succ. %, Model Verif. %, Recovery %

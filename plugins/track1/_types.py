@@ -8,9 +8,10 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from simhost.host._episode import EpisodeOutcome
+from plugins._base import HiddenScenario, ScenarioSource
+from simhost.host import EpisodeOutcome
 from simhost.worlds.track1 import HouseSplit, HouseTruth
 
 ExceptionType = Literal["door_lock", "object_relocation", "container_unavailable",
@@ -98,8 +99,9 @@ class Query(_Frozen):
     """The description in fields (category, colour, room ids, …), as the agent sees it."""
 
 
-class Track1Scenario(_Frozen):
-    """One hidden Track 1 scenario (organizer-only)."""
+class Track1Scenario(_Frozen, HiddenScenario):
+    """One hidden Track 1 scenario (organizer-only); ``Track1Scenario.of(scenario)`` reads
+    one back from a ``Scenario``, the log's ``ScenarioRecord`` or its params."""
 
     split: HouseSplit
     layout_digest: str
@@ -109,6 +111,17 @@ class Track1Scenario(_Frozen):
     queries: tuple[Query, ...]
     budgets: dict[str, int] = Field(default_factory=dict)
     """Step budget per stage, derived from the ground truth (``_budgets``)."""
+
+
+def own_ids(scenario: ScenarioSource) -> bool:
+    """Whether the scenario's split shows no ids (no detector: ``vision``): the agent's
+    files then name things by ids of its own, which the score matches to the truth's
+    (``_matching``) and the audit does not hold against what was shown. False for params
+    that do not read as a Track 1 scenario."""
+    try:
+        return not Track1Scenario.of(scenario).split.config.detections
+    except ValidationError:
+        return False
 
 
 class Track1Plan(BaseModel):

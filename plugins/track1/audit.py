@@ -32,6 +32,8 @@ Then:
 On a split that hands over no ids (``vision``) the ids of a world model are the agent's
 own: the id and hidden-state checks do not apply there (what would they be compared with?)
 and are left out, with a note; the room check stays (the room sign shows room ids).
+
+``Track1Checks`` is how ``eagc audit`` runs them (``Track1.audit``, ``plugins._audit``).
 """
 
 from __future__ import annotations
@@ -43,9 +45,10 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from plugins._audit import STEP_SLACK
+from plugins._audit import STEP_SLACK, AuditInput, EpisodeChecks, Finding, Snapshot
+from plugins.track1._types import own_ids
 from schemas import ActionResult, HostMessage, LogRecord, SchemaError, WorldModel, parse_json
-from simhost.host._records import (
+from simhost.host import (
     ExceptionArmedEvent,
     ExceptionEvent,
     ExceptionObservableEvent,
@@ -436,28 +439,6 @@ def detection_flags(records: Sequence[LogRecord], timeline: Timeline) -> list[Fl
     return flags
 
 
-@dataclass(frozen=True)
-class Snapshot:
-    """The agent's files at one moment: ``name`` (a stage, or ``final``) at host ``step``."""
-
-    name: str
-    step: int
-    files: Mapping[str, bytes]
-
-
-def _own_ids(params: Mapping[str, Any]) -> bool:
-    """Whether the scenario's split shows no ids (no detector: ``vision``)."""
-    from types import SimpleNamespace
-
-    from plugins.track1._track import Track1
-
-    try:
-        hidden = Track1().hidden(SimpleNamespace(params=dict(params)))  # type: ignore[arg-type]
-    except ValidationError:
-        return False
-    return not hidden.split.config.detections
-
-
 def check_episode(shown: Shown, *, scenario_params: Mapping[str, Any],
                   events: Sequence[HostEventModel | Mapping[str, Any]],
                   snapshots: Sequence[Snapshot],
@@ -473,7 +454,7 @@ def check_episode(shown: Shown, *, scenario_params: Mapping[str, Any],
         log: the final ``episode_log.jsonl`` records.
     """
     flags: list[Flag] = []
-    own = _own_ids(scenario_params)
+    own = own_ids(scenario_params)
     if own:
         flags.append(Flag("own_ids", "note", "the split shows no ids (vision): the world "
                           "models' ids are the agent's own; only their rooms are checked"))
@@ -491,3 +472,27 @@ def check_episode(shown: Shown, *, scenario_params: Mapping[str, Any],
                                    own_ids=own)
     flags += detection_flags(log, Timeline.from_log(scenario_params, events))
     return flags
+
+
+class Track1Checks(EpisodeChecks):
+    """This module's checks as ``eagc audit`` runs them (``Track1.audit``): fed a ``Shown``
+    as the log is read, then ``check_episode``."""
+
+    def __init__(self) -> None:
+        self.shown = Shown()
+
+    def observe(self, step: int, data: Mapping[str, Any], tensors: Mapping[str, Any]) -> None:
+        self.shown.observe(step, data, tensors)
+
+    def message(self, step: int, message: HostMessage) -> None:
+        self.shown.message(step, message)
+
+    def action(self, step: int, action: Mapping[str, Any], result: ActionResult) -> None:
+        self.shown.action(step, action, result)
+
+    def findings(self, episode: AuditInput) -> list[Finding]:
+        flags = check_episode(self.shown, scenario_params=episode.scenario.params,
+                              events=episode.events, snapshots=episode.snapshots,
+                              log=episode.log)
+        return [Finding(check=f.check, severity=f.severity, message=f.message, step=f.step,
+                        subjects=f.subjects) for f in flags]

@@ -1,29 +1,35 @@
-"""``attempt_png``: an attempt of a recorded episode drawn beside the demonstration.
+"""Pictures of a recorded Track 2 episode: an attempt beside the demonstration.
 
-Reads the episode's MCAP log (``host/episode.mcap``): ``/eagc/scenario`` for the source and
-demonstration seed, ``/eagc/reply`` for the stage and attempt of every reply, and the
-``/eagc/observation`` that follows each reply for the hand's position. The demonstration
-comes from the episode's ``input/demo`` folder, or is written again from the scenario (the
-same source and seed give the same packet) when that folder is gone.
+``attempt_png`` draws one attempt (``Track2.picture``); ``attempt_pictures`` draws each,
+with the steps it spans, for the episode viewer (``Track2.step_pictures``). Both read the
+episode's MCAP log (``host/episode.mcap``) once, in log-time order: ``/eagc/scenario`` for
+the source and demonstration seed, ``/eagc/reply`` for the stage and attempt of every reply,
+the ``/eagc/observation`` that follows each reply for the hand's position, and the state
+hashes for the host's step. The demonstration comes from the episode's ``input/demo``
+folder, or (``attempt_png``) is written again from the scenario (the same source and seed
+give the same packet) when that folder is gone.
 """
 
 from __future__ import annotations
 
 import tempfile
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
+from plugins._base import Scenario
+from plugins._views import RecordedEpisode, StepPicture
 from plugins.track2._episode import DEMO_FOLDER, EXECUTION
 from plugins.track2._scenario import Track2Scenario
 from schemas import EpisodeResult, ErrorReply, HelloReply, ObservationReply
-from simhost.host._records import (
+from simhost.host import (
     AttemptEndEvent,
     McapRecordError,
     ScenarioRecord,
     SmallTensors,
+    StateHash,
     read_records,
 )
 
@@ -41,22 +47,39 @@ class _Titled(BaseModel):
     max_attempts: int = 3
 
 
-def _read_log(
-    mcap: Path,
-) -> tuple[ScenarioRecord, dict[int, list[list[float]]], int | None, float | None]:
-    """The scenario, the hand's path per attempt, the attempt that succeeded and the
-    episode's score (0-1, from its EpisodeResult; None before it was scored)."""
+@dataclass
+class _Log:
+    """What the pictures read of an episode's log."""
+
+    scenario: ScenarioRecord
+    #: Attempt → the hand's path, one ``[step, x, y, z]`` per observation of the attempt.
+    paths: dict[int, list[list[float]]] = field(default_factory=dict)
+    #: The attempt that succeeded (None: none did).
+    won: int | None = None
+    #: The episode's score (0-1, from its EpisodeResult; None before it was scored).
+    total: float | None = None
+
+    def xyz(self, attempt: int) -> np.ndarray:
+        """The hand's path in one attempt, N×3."""
+        return np.asarray([p[1:] for p in self.paths[attempt]])
+
+
+def _read_log(mcap: Path) -> _Log:
+    """The scenario, the hand's path per attempt, the attempt that succeeded and the score."""
     scenario: ScenarioRecord | None = None
     total: float | None = None
     won: int | None = None
     paths: dict[int, list[list[float]]] = {}
     current: int | None = None
-    for record in read_records(mcap, log_time_order=False):
+    step = 0
+    for record in read_records(mcap):
         match record.body:
             case ScenarioRecord() as scenario:
                 pass
             case EpisodeResult() as result:
                 total = result.score.total
+            case StateHash() as hashed:
+                step = hashed.step
             case HelloReply() | ErrorReply():
                 current = None
             case ObservationReply() as reply:
@@ -68,10 +91,10 @@ def _read_log(
             case SmallTensors() as tensors if current is not None:
                 proprio = tensors.vector("proprio")
                 if proprio:
-                    paths.setdefault(current, []).append(proprio[:3])
+                    paths.setdefault(current, []).append([step, *proprio[:3]])
     if scenario is None:
         raise McapRecordError(f"{mcap}: no /eagc/scenario message: not an eagc episode log")
-    return scenario, paths, won, total
+    return _Log(scenario, paths, won, total)
 
 
 def _title(scenario: ScenarioRecord, k: int, won: int | None, total: float | None) -> str:
@@ -94,7 +117,7 @@ def _with_axis_values(png: bytes, demo_xyz: np.ndarray, attempt_xyz: np.ndarray,
     """The picture of ``render_attempt_vs_demo`` with the range of each panel's axes in
     metres: horizontal (X) under the panel, vertical (Y, Z) at its right edge. The extent
     is the one that function draws: both paths' bounding box, widened 15 %."""
-    from simhost.worlds.track2._raster import Canvas, decode_png
+    from simhost.worlds.track2 import Canvas, decode_png
 
     both = np.vstack([demo_xyz[:, :3], attempt_xyz[:, :3]])
     lo, hi = both.min(axis=0), both.max(axis=0)
@@ -145,22 +168,23 @@ def attempt_png(
     mcap = root / "host" / "episode.mcap"
     if not mcap.is_file():
         raise FileNotFoundError(f"{mcap} does not exist: is {root} an episode folder?")
-    scenario, paths, won, total = _read_log(mcap)
+    log = _read_log(mcap)
+    scenario, paths = log.scenario, log.paths
     if scenario.track != "track2":
         raise ValueError(f"{root} is a {scenario.track!r} episode, not track2")
     if not paths:
         raise ValueError(f"{root}: the agent never reached the execution stage; nothing to draw")
-    k = attempt or won or max(paths)
+    k = attempt or log.won or max(paths)
     if k not in paths:
         raise ValueError(f"{root}: attempt {k} has no recorded step (attempts: {sorted(paths)})")
     out = Path(path) if path is not None else root / "host" / f"attempt_{k}.png"
     demo = root / "input" / DEMO_FOLDER
-    attempt_xyz = np.asarray(paths[k])
-    title = _title(scenario, k, won, total)
+    attempt_xyz = log.xyz(k)
+    title = _title(scenario, k, log.won, log.total)
     if (demo / "manifest.json").is_file():
         _draw(demo, attempt_xyz, out, title)
         return out
-    hidden = _hidden(scenario)
+    hidden = Track2Scenario.of(scenario)
     with tempfile.TemporaryDirectory() as tmp:
         write_demo_packet(Path(tmp) / DEMO_FOLDER, hidden.source, seed=hidden.demo_seed,
                           config=hidden.bench, frames=hidden.demo_frames)
@@ -168,22 +192,43 @@ def attempt_png(
     return out
 
 
-def _hidden(scenario: Any) -> Track2Scenario:
-    """The typed hidden scenario (the plugin's one reader of its JSON)."""
-    from plugins.track2._track import Track2
+def attempt_pictures(episode: RecordedEpisode) -> list[StepPicture]:
+    """Each attempt of the episode beside the demonstration, with the steps it spans (the
+    viewer's pictures; none before execution). Raises ``FileNotFoundError`` when the
+    episode folder holds no demonstration (``input/demo``)."""
+    from simhost.worlds.track2 import render_attempt_vs_demo
 
-    return Track2().hidden(scenario)
+    log = _read_log(episode.folder / "host" / "episode.mcap")
+    if not log.paths:
+        return []
+    demo = episode.folder / "input" / DEMO_FOLDER
+    if not (demo / "manifest.json").is_file():
+        raise FileNotFoundError("no demonstration in this episode folder (input/demo)")
+    out = []
+    for k, path in sorted(log.paths.items()):
+        first, last = int(path[0][0]), int(path[-1][0])
+        out.append(StepPicture(
+            first_step=first, last_step=last,
+            caption=f"attempt {k} (steps {first}–{last}) beside the demonstration",
+            png=render_attempt_vs_demo(demo, log.xyz(k), title=f"ATTEMPT {k}")))
+    return out
 
 
-def preview_png(scenario: Any, out: Path) -> Path:
+def preview_png(scenario: Scenario[Track2Scenario], out: Path) -> Path:
     """The demonstrated source beside the hidden instance of a (public) seed: a top view of
     their parts (blue: source, orange: instance; 5 cm scale bar) over the overview camera's
     picture of each, titled with track, seed, split and family. Returns the PNG's path."""
-    from simhost.worlds.track2 import BenchEnv
-    from simhost.worlds.track2._picture import ATTEMPT_RGB, DEMO_RGB, INK, PAPER, _resize
-    from simhost.worlds.track2._raster import Canvas
+    from simhost.worlds.track2 import (
+        ATTEMPT_RGB,
+        DEMO_RGB,
+        INK,
+        PAPER,
+        BenchEnv,
+        Canvas,
+        resize_rgb,
+    )
 
-    hidden = _hidden(scenario)
+    hidden = Track2Scenario.of(scenario)
     shots, rows = [], []
     for params in (hidden.source, hidden.instance):
         env = BenchEnv(params, config=hidden.bench, render_mode="rgb_array",
@@ -229,7 +274,7 @@ def preview_png(scenario: Any, out: Path) -> Path:
     ys = head + panel + 2 * margin
     half = (width - 3 * margin) // 2
     for k, img in enumerate(shots):
-        c.blit(ys, margin + k * (half + margin), _resize(img, half))
+        c.blit(ys, margin + k * (half + margin), resize_rgb(img, half))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / f"track2_preview_seed{scenario.seed}_{scenario.split}.png"

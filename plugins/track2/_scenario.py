@@ -43,6 +43,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator
 
+from plugins._base import HiddenScenario
 from plugins._errors import PluginError
 from simhost.worlds.track2 import (
     FAMILIES,
@@ -132,8 +133,10 @@ class Track2SplitParams(BaseModel):
 KNOWN_PARAMS = tuple(Track2SplitParams.model_fields)
 
 
-class Track2Scenario(BaseModel):
-    """Everything hidden about one Track 2 episode (``Scenario.params`` as JSON)."""
+class Track2Scenario(HiddenScenario):
+    """Everything hidden about one Track 2 episode (``Scenario.params`` as JSON);
+    ``Track2Scenario.of(scenario)`` reads one back from a ``Scenario``, the log's
+    ``ScenarioRecord`` or its params."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 

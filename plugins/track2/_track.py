@@ -19,23 +19,17 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from plugins._base import (
-    EPISODE_LOG,
-    Column,
-    FileRule,
-    Scenario,
-    ScoringInput,
-    TrackPlugin,
-    _mean,
-    resource_columns,
-)
-from plugins.track2 import _scoring
+from plugins._base import Scenario, ScoringInput, TrackPlugin
+from plugins._files import EPISODE_LOG, FileRule
+from plugins._leaderboard import Column, mean, resource_columns
+from plugins._views import RecordedEpisode, StepPicture
+from plugins.track2 import _scoring, _vocabulary
 from plugins.track2._episode import DEMO_FOLDER, DEMONSTRATION, EXECUTION, PARSING, Track2Episode
 from plugins.track2._outcome import Track2Outcome
+from plugins.track2._picture import attempt_pictures, attempt_png, preview_png
 from plugins.track2._scenario import Track2Scenario, make_track2_scenario
-from schemas import EpisodeResult, ScoreCard, TaskModel
-from schemas._io import ignored_note
-from simhost.host._episode import StageSpec, TrackEpisode
+from schemas import EpisodeResult, ScoreCard, TaskModel, ignored_note
+from simhost.host import StageSpec, TrackEpisode
 
 FAMILY_COLUMNS = (("insertion", "Insertion"), ("rotation", "Rotation"), ("assembly", "Assembly"),
                   ("opening", "Open/Close"), ("tool_use", "Tool Use"))
@@ -154,16 +148,20 @@ class Track2(TrackPlugin[Track2Scenario, Track2Outcome]):
 
     def picture(self, episode_dir: Path, out: Path | None = None) -> Path:
         """The successful (else the last) attempt beside the demonstration."""
-        from plugins.track2._picture import attempt_png
-
         return attempt_png(episode_dir, path=out)
 
     def preview(self, *, seed: int, split: str, out: Path) -> Path:
         """The demonstrated source beside the hidden instance of ``seed`` in ``split``."""
-        from plugins.track2._picture import preview_png
-
         scenario = self.make_scenario(seed=seed, split=split, params={"demo_frames": False})
         return preview_png(scenario, out)
+
+    def step_pictures(self, episode: RecordedEpisode) -> list[StepPicture]:
+        """Each attempt beside the demonstration, while the scrubber is in it."""
+        return attempt_pictures(episode)
+
+    def vocabulary(self) -> str:
+        """The packet's arrays, the task-model names per family, how values compare."""
+        return _vocabulary.vocabulary(self)
 
     def stratum(self, result: EpisodeResult) -> str:
         """The episode's family: a split's average is the mean of its families' means."""
@@ -176,8 +174,8 @@ class Track2(TrackPlugin[Track2Scenario, Track2Outcome]):
         minutes; per split, the mean over its families too."""
         row: dict[str, float | None] = {}
         for fam, _ in FAMILY_COLUMNS:
-            row[fam] = _mean([100.0 * r.score.total for r in results
-                              if r.score.metrics.get(f"family_{fam}")])
+            row[fam] = mean([100.0 * r.score.total for r in results
+                             if r.score.metrics.get(f"family_{fam}")])
         row["final"] = _family_mean(results)
         for split in sorted({r.split for r in results}):
             row[split] = _family_mean([r for r in results if r.split == split])
@@ -197,6 +195,6 @@ class Track2(TrackPlugin[Track2Scenario, Track2Outcome]):
 
 def _family_mean(results: Sequence[EpisodeResult]) -> float | None:
     """The mean over families of each family's mean score (0–100), as in Table VII."""
-    per = [_mean([100.0 * r.score.total for r in results
-                  if r.score.metrics.get(f"family_{fam}")]) for fam, _ in FAMILY_COLUMNS]
-    return _mean([p for p in per if p is not None])
+    per = [mean([100.0 * r.score.total for r in results
+                 if r.score.metrics.get(f"family_{fam}")]) for fam, _ in FAMILY_COLUMNS]
+    return mean([p for p in per if p is not None])

@@ -207,16 +207,14 @@ def test_vision_is_an_extra_split_with_the_standard_world_and_budgets() -> None:
 
 
 def test_vision_queries_name_no_ids_and_its_files_are_matched() -> None:
-    from types import SimpleNamespace
-
     from plugins.track1 import PLANNING
     from plugins.track1._queries import ID_FIELD
-    from plugins.track1._score import own_ids
+    from plugins.track1._types import own_ids
 
     plugin = load_track("track1")
     for split, matched in (("vision", True), ("standard", False)):
         scenario = plugin.make_scenario(seed=SEED, split=split, params={})
-        assert own_ids(SimpleNamespace(scenario=scenario)) is matched  # type: ignore[arg-type]
+        assert own_ids(scenario) is matched
         ep = plugin.make_episode(scenario)
         assert isinstance(ep, Track1Episode)
         try:

@@ -1,8 +1,9 @@
 """Imports point down: orchestrator → plugins → simhost → schemas, with no circle.
 
-Read from the source (every ``import`` statement, also those inside functions), so a new
-import that runs back up, or a circle between two of the orchestrator's rooms, fails here
-before anyone has to draw the house to see it.
+Read from the source (every ``import`` statement, also those inside functions, relative
+ones resolved), so a new import that runs back up, a circle between two of the
+orchestrator's rooms, or a circle between any two modules fails here before anyone has to
+draw the house to see it.
 """
 
 from __future__ import annotations
@@ -10,8 +11,6 @@ from __future__ import annotations
 import ast
 from collections.abc import Iterator
 from pathlib import Path
-
-import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 #: Lowest floor first: a package may import those below it, never those above.
@@ -21,16 +20,16 @@ ROOMS = ("_errors", "_programs", "_runtimes", "_results", "_images", "_episode",
          "_viewer", "_channel", "conformance", "cli")
 
 
-def _module(path: Path) -> str:
-    parts = list(path.relative_to(REPO).with_suffix("").parts)
+def _module(path: Path, root: Path = REPO) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
     if parts[-1] == "__init__":
         parts.pop()
     return ".".join(parts)
 
 
-def _imports(path: Path) -> Iterator[tuple[str, int]]:
+def _imports(path: Path, root: Path = REPO) -> Iterator[tuple[str, int]]:
     """Every module ``path`` imports (absolute name) with its line, relative ones resolved."""
-    here = _module(path).split(".")
+    here = _module(path, root).split(".")
     package = here if path.name == "__init__.py" else here[:-1]
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.Import):
@@ -45,8 +44,8 @@ def _imports(path: Path) -> Iterator[tuple[str, int]]:
                 yield f"{base}.{alias.name}", node.lineno
 
 
-def _sources() -> list[Path]:
-    return [p for floor in FLOORS for p in sorted((REPO / floor).rglob("*.py"))]
+def _sources(root: Path = REPO) -> list[Path]:
+    return [p for floor in FLOORS for p in sorted((root / floor).rglob("*.py"))]
 
 
 def test_every_import_points_down() -> None:
@@ -82,35 +81,71 @@ def test_the_orchestrators_rooms_point_down() -> None:
     assert not up, "imports that run back up between rooms:\n" + "\n".join(up)
 
 
-def test_no_module_imports_itself_in_a_circle() -> None:
-    """Module-level imports only (an import inside a function runs later and cannot
-    deadlock the loading; the floors above still hold for those)."""
-    modules = {_module(p): p for p in _sources()}
-    graph: dict[str, set[str]] = {m: set() for m in modules}
+def _import_graph(root: Path = REPO) -> dict[str, dict[str, str]]:
+    """Module → each module it imports → where (``path:line``): every import, those inside
+    functions and relative ones too, and the packages an import loads on its way (``import
+    a.b.c`` runs ``a`` and ``a.b`` first). A module's own packages are loaded before it:
+    they are not edges."""
+    modules = {_module(p, root): p for p in _sources(root)}
+    graph: dict[str, dict[str, str]] = {m: {} for m in modules}
     for name, path in modules.items():
-        for node in ast.parse(path.read_text()).body:
-            if isinstance(node, ast.Import):
-                found = [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom) and not node.level and node.module:
-                subs = [f"{node.module}.{a.name}" for a in node.names]
-                found = [s for s in subs if s in modules] or [node.module]
-            else:
-                continue
-            # A module's own packages are loaded before it: not a circle.
-            graph[name].update(f for f in found if f in modules
-                               and f != name and not name.startswith(f + "."))
-    state: dict[str, int] = {}
+        for target, line in _imports(path, root):
+            parts = target.split(".")
+            for k in range(len(parts), 0, -1):  # the module named, then its packages
+                found = ".".join(parts[:k])
+                if found in modules and found != name and not name.startswith(found + "."):
+                    graph[name].setdefault(found, f"{path.relative_to(root)}:{line}")
+    return graph
 
-    def visit(m: str, trail: list[str]) -> None:
-        state[m] = 1
+
+def _circles(graph: dict[str, dict[str, str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan's)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    out: list[list[str]] = []
+
+    def visit(m: str) -> None:
+        index[m] = low[m] = len(index)
+        stack.append(m)
         for n in sorted(graph[m]):
-            if state.get(n) == 1:
-                pytest.fail("circle: " + " -> ".join(trail[trail.index(n):] + [m, n])
-                            if n in trail else f"circle through {m} -> {n}")
-            if n not in state:
-                visit(n, trail + [m])
-        state[m] = 2
+            if n not in index:
+                visit(n)
+                low[m] = min(low[m], low[n])
+            elif n in stack:
+                low[m] = min(low[m], index[n])
+        if low[m] == index[m]:
+            part = stack[stack.index(m):]
+            del stack[stack.index(m):]
+            if len(part) > 1:
+                out.append(sorted(part))
 
     for m in sorted(graph):
-        if m not in state:
-            visit(m, [])
+        if m not in index:
+            visit(m)
+    return out
+
+
+def test_no_module_imports_itself_in_a_circle() -> None:
+    """Counted honestly: an import inside a function closes a circle as surely as one at
+    the top (it only runs later), so every import counts."""
+    graph = _import_graph()
+    found = [
+        f"{' <-> '.join(part)}:\n" + "\n".join(
+            f"  {m} -> {n} ({graph[m][n]})" for m in part for n in sorted(graph[m])
+            if n in part)
+        for part in _circles(graph)]
+    assert not found, f"{len(found)} circle(s) between modules:\n" + "\n".join(found)
+
+
+def test_the_circle_check_sees_imports_in_functions_and_relative_ones(tmp_path: Path) -> None:
+    """The check above reads what it claims to: a circle closed by a relative import
+    inside a function is one."""
+    package = tmp_path / "plugins" / "toy"
+    package.mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    (package / "a.py").write_text("from plugins.toy import b\n")
+    (package / "b.py").write_text("def f() -> None:\n    from . import a\n")
+    graph = _import_graph(tmp_path)
+    assert graph["plugins.toy.b"] == {"plugins.toy.a": "plugins/toy/b.py:2"}, graph
+    assert _circles(graph) == [["plugins.toy.a", "plugins.toy.b"]]

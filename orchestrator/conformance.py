@@ -1,4 +1,5 @@
-"""The conformance suite every container runtime must pass (like dm_env_rpc's ``compliance/``).
+"""The conformance suites every container runtime must pass (like dm_env_rpc's
+``compliance/``), and the one a track's hooks must pass on real episodes.
 
 Subclass it in a test module and give it two pytest fixtures: ``runtime`` (the
 ``AgentRuntime`` under test) and ``probe_image`` (what that runtime starts to run the probe
@@ -30,6 +31,19 @@ The probe's findings (``probe-result.json``) are read as ``ProbeFindings``: the 
 standard-library program, its report is ours, and a check reads it by attribute.
 
 ``probe_build_context(folder)`` writes a Docker build context for the probe image.
+
+``TrackEpisodeConformance`` is what the orchestrator asks of a track plugin beyond
+``plugins.conformance.TrackConformance``: a short local campaign of the track (one episode
+per team, the agent a plain process) is played through the episode worker, then its
+leaderboard, its pages (``eagc report``: the track's map, pictures and truth), each
+episode's audit (the replay and the track's checks) and the track's section of the
+protocol page are made from it. Subclass it and set ``track`` and ``agent`` (a command that
+plays an episode of the track)::
+
+    class TestMyTrackEpisodes(TrackEpisodeConformance):
+        track = "my_track"
+        agent = "python examples/my_agent/agent.py"
+
 Requires pytest only to run.
 """
 
@@ -60,6 +74,7 @@ from schemas import CONTAINER, ContainerExit, Limits, unix_endpoint
 
 __all__ = [
     "PROBE_SCRIPT",
+    "TrackEpisodeConformance",
     "FilesystemFindings",
     "ProbeFindings",
     "ProbeReport",
@@ -451,3 +466,164 @@ class SandboxConformance(RuntimeConformance):
             assert run.handle.wait(10.0), "the agent still runs after cleanup()"
             run.exit = run.handle.stop()  # the worker may still stop an agent the reaper took
             assert runtime.cleanup(mark) == []
+
+
+# ------------------------------------------------------------------- a track's hooks
+@dataclass(frozen=True)
+class PlayedCampaign:
+    """A short campaign of a track, played: its spec, where its store and pages are, and
+    each episode's folder."""
+
+    spec: Any
+    store: Path
+    folders: tuple[Path, ...]
+
+
+class TrackEpisodeConformance:
+    """Checks a track's hooks on real episodes (module doc). Subclass it in a ``Test*``
+    class and set ``track`` and ``agent``."""
+
+    #: The track under test (an installed or a ``plugins.registered_track`` one).
+    track: ClassVar[str]
+    #: A command that plays one episode of the track (run by the local runtime).
+    agent: ClassVar[str]
+    #: The split played (None: the track's first) and its parameters.
+    split: ClassVar[str | None] = None
+    params: ClassVar[Mapping[str, Any]] = {}
+    #: One episode per team.
+    teams: ClassVar[tuple[str, ...]] = ("team-a", "team-b")
+    #: The campaign's limits (``schemas.Limits`` fields).
+    limits: ClassVar[Mapping[str, Any]] = {"max_steps_per_stage": 200, "startup_s": 60.0,
+                                           "pin_cpus": False}
+    _played: ClassVar[dict[type, PlayedCampaign]] = {}
+
+    def played(self) -> PlayedCampaign:
+        """The campaign, played once per class (folders under /tmp: short socket paths)."""
+        if type(self) not in self._played:
+            self._played[type(self)] = self._play()
+        return self._played[type(self)]
+
+    def _play(self) -> PlayedCampaign:
+        import yaml
+
+        from orchestrator._campaign.seeds import commitment, load_secret, seed_list
+        from orchestrator._campaign.spec import campaign_dir, load_campaign, plan, store_path
+        from orchestrator._episode.worker import EpisodeSpec, run_episode
+        from orchestrator._results.store import ResultsStore
+        from orchestrator._runtimes.local import LocalProcessRuntime
+        from plugins import load_track
+
+        plugin = load_track(self.track)
+        split = self.split or next(iter(plugin.splits))
+        folder = Path(tempfile.mkdtemp(prefix="eagc-tc-", dir="/tmp"))
+        doc = {"name": f"conformance-{self.track}", "track": self.track, "phase": "local",
+               "runtime": "local", "retries": 0, "output": str(folder / "out"),
+               "splits": [{"name": split, "weight": 1.0, "episodes": 1,
+                           "params": dict(self.params)}],
+               "submissions": [{"team": t, "image": self.agent} for t in self.teams],
+               "limits": dict(self.limits)}
+        (folder / "campaign.yaml").write_text(yaml.safe_dump(doc))
+        spec = load_campaign(folder / "campaign.yaml")
+        seeded = seed_list(spec, load_secret(spec))
+        seeds = {(s.split, s.index): s.seed for s in seeded}
+        runs = campaign_dir(spec)
+        runs.mkdir(parents=True, mode=0o700)
+        folders = []
+        with ResultsStore(store_path(spec)) as store:
+            keys = plan(spec)
+            store.register(spec, commitment(spec, seeded), len(keys))
+            for key in keys:
+                result = run_episode(EpisodeSpec(
+                    track=self.track, image=self.agent, seed=seeds[(key.split, key.index)],
+                    split=key.split, params=dict(self.params), limits=spec.limits,
+                    runs_dir=runs, index=key.index,
+                    labels={"campaign": spec.name, "submission": key.submission}),
+                    LocalProcessRuntime(quiet=True))
+                assert result.episode_dir is not None, result.failure
+                store.commit(spec.name, key, result, retry=0, node=None)
+                folders.append(Path(result.episode_dir))
+        return PlayedCampaign(spec, store_path(spec), tuple(folders))
+
+    def _store(self) -> Any:
+        from orchestrator._results.store import ResultsStore
+
+        return ResultsStore(self.played().store)
+
+    # ---------------------------------------------------------------------- the checks
+    def test_every_episode_is_scored_by_the_track(self) -> None:
+        with self._store() as store:
+            stored = store.results(self.played().spec.name)
+        assert len(stored) == len(self.teams), stored
+        for e in stored:
+            assert e.result.status.value == "completed", (e.key, e.result.failure)
+            assert e.result.score.track == self.track, e.result.score
+
+    def test_the_leaderboard_has_a_row_per_team(self) -> None:
+        from orchestrator._results.leaderboard import build_leaderboard
+
+        with self._store() as store:
+            board = build_leaderboard(self.played().spec, store)
+        assert sorted(r.team for r in board.rows) == sorted(self.teams), board.rows
+        assert all(r.values.get("final") is not None for r in board.rows), board.rows
+        for fmt in ("table", "csv", "json", "md"):
+            assert board.render(fmt, 120).strip(), fmt
+
+    def test_the_pages_show_the_tracks_map_pictures_and_truth(self) -> None:
+        from orchestrator._viewer.episode import read_episode
+        from orchestrator._viewer.site import write_campaign_site
+        from plugins import RecordedEpisode, load_track
+
+        plugin = load_track(self.track)
+        out = Path(tempfile.mkdtemp(prefix="eagc-tc-site-"))
+        try:
+            with self._store() as store:
+                pages = write_campaign_site(self.played().spec, store, out, organizer=True)
+            assert len(pages) >= 2 + len(self.played().folders), pages
+        finally:
+            shutil.rmtree(out, ignore_errors=True)
+        for folder in self.played().folders:
+            for organizer in (False, True):
+                view = read_episode(folder, organizer=organizer)
+                hooks = [p for p in view.problems if p.startswith(("no map", "no model-vs"))]
+                assert not hooks, hooks
+                episode = RecordedEpisode(folder, _scenario_of(folder), organizer)
+                shown = plugin.episode_map(episode)
+                assert (view.map_image is not None) == (shown is not None)
+                if shown is not None and view.map_frame is not None:
+                    size = (view.map_frame["height"], view.map_frame["width"])
+                    assert size == shown.rgb.shape[:2], (size, shown.rgb.shape)
+                for picture in view.pictures:
+                    assert 0 <= picture["from"] <= picture["to"] <= view.last_step, picture
+                if organizer:
+                    truth = plugin.truth(episode)
+                    assert view.truth == ([] if truth is None else list(truth.lines))
+                else:
+                    assert view.hidden is None and not view.truth and view.picture is None
+
+    def test_the_audit_replays_the_episode_and_runs_the_tracks_checks(self) -> None:
+        from orchestrator._episode.audit import audit_episode, track_checks
+        from plugins import EpisodeChecks, Finding
+
+        checks = track_checks(self.track)
+        assert checks is None or isinstance(checks, EpisodeChecks)
+        for folder in self.played().folders:
+            audit = audit_episode(folder)
+            assert audit.track == self.track and audit.host_steps > 0
+            assert audit.replay is not None and audit.replay.ok, audit.replay
+            assert all(isinstance(f, Finding) for f in audit.findings)
+
+    def test_the_protocol_page_gets_the_tracks_section(self) -> None:
+        from plugins import load_track, protocol_doc
+
+        page = protocol_doc.render("<!-- end tracks -->\n", tracks=[self.track])
+        assert f"### Track `{self.track}`" in page
+        assert f"<!-- end generated:track:{self.track} -->" in page
+        assert load_track(self.track).vocabulary().strip() in page
+
+
+def _scenario_of(folder: Path) -> Any:
+    from simhost.host import read_scenario
+
+    scenario = read_scenario(folder / "host" / "episode.mcap")
+    assert scenario is not None, f"{folder}: no scenario in the log"
+    return scenario

@@ -230,8 +230,9 @@ class TrackConformance:
                 assert isinstance(messages, tuple) and all(
                     isinstance(m, HostMessage) for m in messages
                 ), f"on_stage_start({stage.name!r}) must return a tuple of HostMessage"
-                for m in messages if checks is not None else ():
-                    checks.message(len(outcomes), m)
+                if checks is not None:
+                    for m in messages:
+                        checks.message(len(outcomes), m)
                 for _ in range(self.steps_per_stage):
                     action = check_action(
                         episode.action_spec, sample_action(episode.action_spec, rng)

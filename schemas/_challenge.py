@@ -99,6 +99,10 @@ class ChallengePhase(_Model):
         "for the phase in its data folder (private) the first time it starts.")
     preflight: Preflight = Preflight()
     quota: Quota = Quota()
+    public_splits: tuple[str, ...] = Field(default=(), description="Splits whose episodes "
+                                           "their teams see whole (per-episode scores, the "
+                                           "viewer): their seeds are then no secret. The "
+                                           "others show a score, an interval and verdicts.")
 
     _when = field_validator("opens", "closes")(
         classmethod(lambda cls, v: v if v is None else _check_when(v)))

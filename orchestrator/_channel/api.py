@@ -71,6 +71,62 @@ def _runner(request: Request, authorization: Annotated[str | None, Header()] = N
         raise HTTPException(401, "not the runner's token (<data>/runner.token)")
 
 
+_OVER = f"request body over {MAX_BODY // 1024} KiB"
+
+
+class _TooLarge(BaseException):
+    """Raised while a body is read past the cap; a BaseException so that no handler
+    between here and ``BodyCap`` (FastAPI turns a failed body read into a 400) takes it."""
+
+
+class BodyCap:
+    """Refuses a request whose body is over ``limit`` bytes, however it is sent: by its
+    Content-Length at once, a chunked one as soon as the bytes received pass the limit
+    (so nothing past it is ever held in memory). The refusal is recorded off the loop."""
+
+    def __init__(self, app: Any, limit: int, record: Any) -> None:
+        self.app, self.limit, self.record = app, limit, record
+
+    async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        length = dict(scope["headers"]).get(b"content-length")
+        if length is not None and (not length.isdigit() or int(length) > self.limit):
+            await self._refuse(scope, receive, send)
+            return
+        seen = 0
+        started = False
+
+        async def counted() -> Any:
+            nonlocal seen
+            message = await receive()
+            if message["type"] == "http.request":
+                seen += len(message.get("body", b""))
+                if seen > self.limit:
+                    raise _TooLarge
+            return message
+
+        async def sending(message: Any) -> None:
+            nonlocal started
+            started = started or message["type"] == "http.response.start"
+            await send(message)
+
+        try:
+            await self.app(scope, counted, sending)
+        except _TooLarge:
+            if not started:
+                await self._refuse(scope, receive, send)
+
+    async def _refuse(self, scope: Any, receive: Any, send: Any) -> None:
+        from starlette.concurrency import run_in_threadpool
+
+        client = scope.get("client") or ("?", 0)
+        await run_in_threadpool(self.record, str(client[0]), scope["method"], scope["path"])
+        await JSONResponse({"detail": _OVER}, status_code=413,
+                           headers={"Connection": "close"})(scope, receive, send)
+
+
 Team = Annotated[str, Depends(_team)]
 Runner = Annotated[None, Depends(_runner)]
 
@@ -88,32 +144,32 @@ def create_app(channel: Channel) -> FastAPI:
 
     def refuse(request: Request, status: int, detail: str,
                headers: dict[str, str] | None = None) -> JSONResponse:
-        """The one-line JSON refusal, kept in the database with who asked what."""
+        """The one-line JSON refusal, kept in the database with who asked what (called
+        on a worker thread: the event loop never waits for the disk)."""
         client = request.client.host if request.client else "?"
         channel.db.record_refusal(client, request.method, request.url.path, status, detail)
         return JSONResponse({"detail": detail}, status_code=status, headers=headers)
 
+    # Plain functions: Starlette runs them on its thread pool.
     @app.exception_handler(ChannelError)
-    async def channel_error(request: Request, e: ChannelError) -> JSONResponse:
+    def channel_error(request: Request, e: ChannelError) -> JSONResponse:
         return refuse(request, e.status, str(e))
 
     @app.exception_handler(StarletteHTTPException)
-    async def http_error(request: Request, e: StarletteHTTPException) -> JSONResponse:
+    def http_error(request: Request, e: StarletteHTTPException) -> JSONResponse:
         return refuse(request, e.status_code, str(e.detail), dict(e.headers or {}))
 
     @app.exception_handler(RequestValidationError)
-    async def bad_request(request: Request, e: RequestValidationError) -> JSONResponse:
+    def bad_request(request: Request, e: RequestValidationError) -> JSONResponse:
         first = e.errors()[0] if e.errors() else {}
         where = ".".join(str(p) for p in first.get("loc", ()) if p != "body")
         return refuse(request, 422, f"malformed request: {where or 'body'}: "
                       f"{first.get('msg', 'invalid')}")
 
-    @app.middleware("http")
-    async def cap_body(request: Request, call_next: Any) -> Any:
-        size = request.headers.get("content-length")
-        if size is not None and (not size.isdigit() or int(size) > MAX_BODY):
-            return refuse(request, 413, f"request body over {MAX_BODY // 1024} KiB")
-        return await call_next(request)
+    def too_large(client: str, method: str, path: str) -> None:
+        channel.db.record_refusal(client, method, path, 413, _OVER)
+
+    app.add_middleware(BodyCap, limit=MAX_BODY, record=too_large)
 
     @app.get("/api/v1/whoami")
     def whoami(who: Team) -> dict[str, Any]:

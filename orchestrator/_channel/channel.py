@@ -288,16 +288,30 @@ class Channel:
         now = self.clock.now()
         back = []
         with self.db.tx() as db:
-            for sid, state in db.execute(
-                    "SELECT id, state FROM submissions WHERE state IN (?, ?) AND lease_until<?",
+            for sid, state, phase, tries in db.execute(
+                    "SELECT id, state, phase, infra_retries FROM submissions "
+                    "WHERE state IN (?, ?) AND lease_until<?",
                     (str(S.PREFLIGHT), str(S.RUNNING), now)).fetchall():
-                waiting = S.RECEIVED if state == S.PREFLIGHT else S.QUEUED
-                self.db.move(db, sid, waiting,
-                             "back in line: its runner stopped answering (lease expired)",
-                             lease_owner=None, lease_until=None,
-                             lease_expiries=_plus(db, sid, "lease_expiries"))
+                # A runner that died is the platform's failure: retried free, as many
+                # times as the phase retries, then failed and refunded.
+                lost = "its runner stopped answering (lease expired)"
+                common = dict(lease_owner=None, lease_until=None, infra_retries=tries + 1,
+                              lease_expiries=_plus(db, sid, "lease_expiries"))
+                if tries + 1 > self._retries(phase):
+                    self.db.move(db, sid, S.FAILED, f"infrastructure: {lost}, "
+                                 f"{tries + 1} time{'s' if tries else ''}; not the team's "
+                                 "fault, refunded", charged=0, **common)
+                else:
+                    waiting = S.RECEIVED if state == S.PREFLIGHT else S.QUEUED
+                    self.db.move(db, sid, waiting, f"back in line: {lost}", **common)
                 back.append(sid)
         return back
+
+    def _retries(self, phase: str) -> int:
+        try:
+            return self.phase(phase).retries
+        except ChannelError:  # a phase no longer in the challenge file
+            return 0
 
     def claim(self, runner: str, kind: str) -> Work | None:
         """The oldest submission waiting for ``kind`` of work, leased to ``runner``."""
@@ -470,7 +484,6 @@ class Channel:
         from orchestrator._campaign.seeds import commitment, load_secret, seed_list
         from orchestrator._results.leaderboard import build_leaderboard
         from orchestrator._results.store import EpisodeKey
-        from plugins import load_track
 
         spec = self.campaign(phase, self.data / "runs",
                              (Submission(team=row.id, image=row.repository, digest=None),))
@@ -482,8 +495,7 @@ class Channel:
                              retry=0, node=None)
             board = build_leaderboard(spec, store)
         mine = board.rows[0]
-        public = set(load_track(spec.track).split_names()) - set(
-            load_track(spec.track).splits)
+        public = set(phase.public_splits)
         splits = []
         for s in spec.splits:
             eps = sorted((e for e in results if e.split == s.name), key=lambda e: e.index)

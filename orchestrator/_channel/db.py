@@ -61,6 +61,10 @@ CREATE TABLE IF NOT EXISTS actions (
 """
 
 
+#: Identical refusals (client, method, path, status) closer than this are counted, not kept.
+REFUSAL_REPEAT_S = 10.0
+
+
 class ChannelError(OrchestratorError):
     """Raised when the channel cannot do what was asked; the message says why and what
     to do. ``status`` is the HTTP status the API answers with."""
@@ -144,6 +148,7 @@ class ChannelDB:
         self.db.execute("PRAGMA synchronous=FULL")
         self.db.executescript(_DDL)
         self._lock = threading.RLock()
+        self._refused: dict[tuple[str, str, str, int], tuple[float, int]] = {}
 
     def close(self) -> None:
         self.db.close()
@@ -260,7 +265,21 @@ class ChannelDB:
     def record_refusal(self, client: str, method: str, path: str, status: int,
                        detail: str) -> None:
         """A request the API refused (who asked what, and why): hostile or mistaken, it is
-        kept (``eagc challenge log``)."""
+        kept (``eagc challenge log``). The same refusal to the same client within
+        ``REFUSAL_REPEAT_S`` is counted, not written again: a client that retries on 429
+        in a loop writes a row every few seconds, saying how many it stood for."""
+        key = (client, method, path, status)
+        now = time.monotonic()
+        with self._lock:
+            last, skipped = self._refused.get(key, (-1e9, 0))
+            if now - last < REFUSAL_REPEAT_S:
+                self._refused[key] = (last, skipped + 1)
+                return
+            self._refused[key] = (now, 0)
+            if len(self._refused) > 10_000:
+                self._refused.clear()
+        if skipped:
+            detail = f"{detail} (and {skipped} more like it before)"
         try:
             with self.tx() as db:
                 db.execute("INSERT INTO refusals VALUES (?, ?, ?, ?, ?, ?)",

@@ -24,7 +24,7 @@ import socket
 import subprocess
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -163,6 +163,8 @@ class RegistryProcess:
     host: str = "127.0.0.1"
     port: int = 0
     process: subprocess.Popen[bytes] | None = None
+    _http: Any = field(default=None, repr=False)
+    _tokens: dict[str, tuple[str, float]] = field(default_factory=dict, repr=False)
 
     @property
     def address(self) -> str:
@@ -234,13 +236,30 @@ class RegistryProcess:
             os.killpg(self.process.pid, signal.SIGKILL)
             self.process.wait(5)
 
+    def _pull_token(self, repository: str) -> str:
+        """The runner's pull token for ``repository``, signed once and reused until a
+        minute before it expires (a submit asks the registry once; signing is most of
+        its cost)."""
+        now = time.monotonic()
+        got = self._tokens.get(repository)
+        if got is None or got[1] < now:
+            token = self.keys.token(RUNNER, grant(RUNNER, [f"repository:{repository}:pull"])
+                                    )["token"]
+            got = (token, now + TOKEN_S - 60)
+            if len(self._tokens) > 10_000:
+                self._tokens.clear()
+            self._tokens[repository] = got
+        return got[0]
+
     def manifest_digest(self, repository: str, reference: str) -> str | None:
         """The manifest digest ``repository:reference`` resolves to (a tag or a digest),
-        asked as the runner; None when the registry has no such manifest."""
-        import requests
+        asked as the runner; None when the registry has no such manifest. One pool of
+        keep-alive connections for every caller's thread."""
+        import urllib3
 
-        token = self.keys.token(RUNNER, grant(RUNNER, [f"repository:{repository}:pull"]),
-                                ttl_s=60)["token"]
+        if self._http is None:
+            self._http = urllib3.PoolManager(maxsize=16, block=False,
+                                             timeout=urllib3.Timeout(total=10))
         accept = ", ".join([
             "application/vnd.docker.distribution.manifest.v2+json",
             "application/vnd.docker.distribution.manifest.list.v2+json",
@@ -248,15 +267,16 @@ class RegistryProcess:
             "application/vnd.oci.image.index.v1+json",
         ])
         try:
-            r = requests.head(f"http://{self.address}/v2/{repository}/manifests/{reference}",
-                              headers={"Authorization": f"Bearer {token}", "Accept": accept},
-                              timeout=10)
-        except requests.RequestException as e:
+            r = self._http.request(
+                "HEAD", f"http://{self.address}/v2/{repository}/manifests/{reference}",
+                headers={"Authorization": f"Bearer {self._pull_token(repository)}",
+                         "Accept": accept}, retries=False)
+        except urllib3.exceptions.HTTPError as e:
             raise RegistryError(f"the registry at {self.address} did not answer: {e}") from e
-        if r.status_code == 404:
+        if r.status == 404:
             return None
-        if r.status_code != 200:
-            raise RegistryError(f"the registry answered {r.status_code} for "
+        if r.status != 200:
+            raise RegistryError(f"the registry answered {r.status} for "
                                 f"{repository}:{reference}")
         digest = r.headers.get("Docker-Content-Digest")
         return str(digest) if digest else None

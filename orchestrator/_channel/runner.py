@@ -195,7 +195,7 @@ class Runner:
 
     def run(self, work: Work, beat: _Heartbeat) -> Outcome:
         from orchestrator._campaign.driver import run_campaign
-        from orchestrator._campaign.spec import CampaignOptions, DriverFailure
+        from orchestrator._campaign.driver_io import CampaignOptions, DriverFailure
         from orchestrator._results.store import ResultsStore
 
         image = self.pull(work)

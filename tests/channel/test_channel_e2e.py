@@ -161,8 +161,11 @@ def test_teams_reach_only_their_own_submissions_and_repositories(
     # Submitting another team's repository, or an image never pushed.
     other = _one_line(ch.eagc("submit", "teams/team-b/sanity-agent:latest", team="team-a"))
     assert "not team team-a's repository" in other
-    never = _one_line(ch.eagc("submit", "teams/team-a/nothing:v1", team="team-a"))
-    assert "no image teams/team-a/nothing:v1" in never and "push it first" in never
+    never = _one_line(ch.eagc("submit", "teams/team-b/nothing:v1", team="team-b"))
+    assert "no image teams/team-b/nothing:v1" in never and "push it first" in never
+    # Team A's one submission at a time waits: the quota says so before the registry.
+    busy = _one_line(ch.eagc("submit", "teams/team-a/nothing:v1", team="team-a"))
+    assert "quota: 1 of your submissions wait or run" in busy
 
     # Tokens: a replaced one says it was revoked and when; a wrong one says so.
     old = ch.tokens["team-a"]
@@ -184,6 +187,11 @@ def test_bad_requests_are_refused_in_one_line(channel_only: Served) -> None:
     big = requests.post(ch.url + "/api/v1/submissions", headers=auth,
                         data=b"x" * (300 * 1024), timeout=10)
     assert big.status_code == 413 and "over 256 KiB" in big.json()["detail"]
+    # Chunked, with no length to refuse it by: cut off as soon as it passes the cap.
+    chunks = (b"y" * 65536 for _ in range(64))  # 4 MiB, never all in memory
+    chunked = requests.post(ch.url + "/api/v1/submissions", headers=auth, data=chunks,
+                            timeout=30)
+    assert chunked.status_code == 413 and "over 256 KiB" in chunked.json()["detail"]
     bad = requests.post(ch.url + "/api/v1/submissions", headers=auth,
                         json={"image": 3, "extra": 1}, timeout=10)
     assert bad.status_code == 422 and bad.json()["detail"].startswith("malformed request")
@@ -243,8 +251,9 @@ def test_a_team_pushes_submits_and_watches_it_score(channel: Served) -> None:
     follow = ch.eagc("submissions", a["id"], "--follow", team="team-a", timeout=600)
     assert follow.returncode == 0, follow.stderr
     seen = follow.stdout
-    for state in ("queued", "running", "scored"):
-        assert f" {state} " in seen, seen
+    # --follow polls every 2 s: it shows the states it catches (a short queue can pass
+    # unseen); the history below holds every one.
+    assert " scored " in seen.splitlines()[-1] or " scored " in seen, seen
     assert max(len(line) for line in seen.splitlines()) <= 80, seen
     view = _wait_final(ch, "team-a", a["id"])
     assert view["state"] == "scored", view

@@ -118,3 +118,92 @@ def test_a_killed_registry_is_started_again_and_pushes_resume(
         assert "eagc_channel_registry_storage_bytes" in metrics
     finally:
         ch.stop()
+
+
+@pytest.mark.slow
+def test_a_run_its_runner_dies_in_is_refunded_without_a_human(
+        images: dict[str, str], tmp_path: Path) -> None:
+    """kill -9 of the runner alone, in a phase that retries nothing: the lease runs out,
+    the submission fails as the platform's fault and the team gets its quota back."""
+    doc = yaml.safe_load(EXAMPLE.read_text())
+    doc["lease_s"] = 10
+    doc["phases"][0]["retries"] = 0
+    challenge = tmp_path / "challenge.yaml"
+    challenge.write_text(yaml.safe_dump(doc))
+    ch = Served(runner=True, challenge=challenge)
+    try:
+        ch.login("team-a")
+        sub = ch.eagc("submit", SANITY, "--json", team="team-a")
+        assert sub.returncode == 0, sub.stderr
+        sid = json.loads(sub.stdout)["id"]
+        _until(lambda: _view(ch, sid)["state"] == "running", 300, "never ran")
+        (runner,) = _pids(f"--runs {ch.data}/runs")
+        os.kill(runner, signal.SIGKILL)
+        done = _until(lambda: (v := _view(ch, sid))["state"] == "failed" and v, 60,
+                      "the lost run was not failed")
+        assert isinstance(done, dict)
+        assert "its runner stopped answering" in str(done["reason"])
+        assert "refunded" in str(done["reason"]) and not done["charged"]
+        quota = requests.get(f"{ch.url}/api/v1/quota", timeout=10, headers={
+            "Authorization": f"Bearer {ch.tokens['team-a']}"}).json()
+        assert (quota["used"], quota["refunded"]) == (0, 1)
+        # Its containers go too (their episode watchers), and its embedded Ray.
+        _until(lambda: not docker.from_env().containers.list(
+            filters={"label": "eagc.campaign=sanity-demo-open"}), 120, "containers left")
+    finally:
+        ch.stop()
+
+
+def test_kill_9_while_submissions_are_accepted_loses_none_it_answered(
+        images: dict[str, str], tmp_path: Path) -> None:
+    """Submissions by digest arrive from eight clients; the channel is killed in the middle
+    of them. Restarted, every submission it answered is there, in exactly one state, with
+    its history from the start; none is there twice."""
+    import threading
+
+    doc = yaml.safe_load(EXAMPLE.read_text())
+    doc["phases"][0]["quota"] = {"per_day": 5000, "concurrent": 5000}  # a deadline's burst
+    challenge = tmp_path / "challenge.yaml"
+    challenge.write_text(yaml.safe_dump(doc))
+    ch = Served(runner=False, challenge=challenge)
+    data = ch.data
+    try:
+        ch.login("team-a")
+        first = json.loads(ch.eagc("submit", SANITY, "--json", team="team-a").stdout)
+        token = ch.tokens["team-a"]
+        answered: list[str] = []
+        stop = threading.Event()
+
+        def client() -> None:
+            s = requests.Session()
+            while not stop.is_set():
+                try:
+                    r = s.post(f"{ch.url}/api/v1/submissions", timeout=5,
+                               headers={"Authorization": f"Bearer {token}"},
+                               json={"image": first["image"]})
+                except requests.RequestException:
+                    return  # the channel is gone
+                if r.status_code == 201:
+                    answered.append(r.json()["id"])
+
+        threads = [threading.Thread(target=client) for _ in range(8)]
+        for t in threads:
+            t.start()
+        _until(lambda: len(answered) >= 20, 60, "too few accepted")
+        os.kill(ch.proc.pid, signal.SIGKILL)
+        stop.set()
+        for t in threads:
+            t.join(10)
+        ch = Served(runner=False, data=data)
+        ch.tokens["team-a"] = token
+        rows = requests.get(f"{ch.url}/api/v1/submissions", timeout=30,
+                            headers={"Authorization": f"Bearer {token}"}).json()
+        ids = [v["id"] for v in rows]
+        assert len(ids) == len(set(ids))
+        assert set(answered) <= set(ids), set(answered) - set(ids)
+        for v in rows:
+            assert v["state"] == "received", v
+            assert [h["state"] for h in v["history"]] == ["received"]
+        assert len(ids) <= len(answered) + 1 + 8  # at most one in flight per client
+    finally:
+        ch.stop()

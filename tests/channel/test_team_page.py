@@ -51,11 +51,12 @@ from schemas import (  # noqa: E402
 ROOT = Path(__file__).resolve().parents[2]
 SANITY = f"python {ROOT / 'examples' / 'sanity_agent' / 'agent.py'}"
 T0 = datetime(2026, 5, 1, 12, 0, tzinfo=UTC).timestamp()
-#: Track 1: ``standard`` is hidden, ``vision`` public (its episodes open in the viewer).
+#: Track 1: ``standard`` is hidden, ``vision`` declared public by the phase (its episodes
+#: open in the viewer).
 SPEC = ChallengeSpec.model_validate({
     "name": "page-ci", "track": "track1", "teams": ["team-a", "team-b"],
     "phases": [{"name": "open", "closes": "start+30d", "retries": 1,
-                "quota": {"per_day": 5, "concurrent": 3},
+                "quota": {"per_day": 5, "concurrent": 3}, "public_splits": ["vision"],
                 "splits": [{"name": "standard", "episodes": 3, "weight": 0.7},
                            {"name": "vision", "episodes": 2, "weight": 0.3}]}]})
 WIDTH, HEIGHT = 1280, 900

@@ -427,3 +427,11 @@ def backup_cmd(to: Annotated[Path, typer.Option("--to", help="The backup's folde
     for path in backup(data, to):
         out.print(f"  {path}", highlight=False)
     out.print(f"backed up {data} to {to}", highlight=False)
+
+
+# The frozen final (orchestrator/cli/final.py).
+from orchestrator.cli.final import freeze_cmd, manifest_cmd, verify_cmd  # noqa: E402
+
+challenge_app.command("freeze")(freeze_cmd)
+challenge_app.command("manifest")(manifest_cmd)
+challenge_app.command("verify")(verify_cmd)

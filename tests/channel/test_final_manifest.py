@@ -205,3 +205,35 @@ def test_runs_must_have_run_exactly_the_manifest_images(channel: Channel,
     result = CliRunner().invoke(app, ["challenge", "verify", str(manifest),
                                       "--runs", str(swapped)])
     assert result.exit_code == 1 and "FAIL  image team-b" in result.output
+
+
+def test_the_commands_on_a_channel_folder(tmp_path: Path) -> None:
+    """``eagc challenge freeze|manifest|verify`` on the channel's folder, the wall clock
+    three days after the channel started (its final closed a day ago)."""
+    spec = ChallengeSpec.model_validate({
+        "name": "finale", "track": "sanity", "teams": ["team-a"],
+        "phases": [{"name": "final", "kind": "final", "closes": "start+2d",
+                    "splits": [{"name": "standard", "episodes": 1}]}]})
+    data = tmp_path / "data"
+    ch = Channel(spec, data, clock=Clock(origin=time.time() - 3 * 86400, speed=0.0))
+    ch.add_spec_teams()
+    ch.db.set_meta("spec", spec.model_dump_json())  # what `serve` keeps for the commands
+    ch.registry = RegistryProcess(tmp_path / "registry", ch.keys, realm="http://unused",
+                                  port=5999)
+    sid, image_id = _queued(ch, "team-a")
+    report, statement = _files(tmp_path, "team-a")
+    freeze(ch, "team-a", sid, report, statement)  # on the channel's clock: before the close
+    runner = CliRunner()
+    late = runner.invoke(app, ["challenge", "freeze", "team-a", sid, "--report", str(report),
+                               "--data", str(data)])
+    assert late.exit_code == 1 and "deadline passed" in late.output
+    out = tmp_path / "pub"
+    made = runner.invoke(app, ["challenge", "manifest", "final", "--data", str(data),
+                               "--out", str(out)])
+    assert made.exit_code == 0, made.output
+    assert {p.name for p in out.iterdir()} >= {"manifest.json", "manifest.sig",
+                                               "manifest.pub", "campaign.yaml", "team-a"}
+    checked = runner.invoke(app, ["challenge", "verify", str(out / "manifest.json"),
+                                  "--key", str(data / "keys" / "manifest.pub")])
+    assert checked.exit_code == 0, checked.output
+    assert image_id in (out / "campaign.yaml").read_text()

@@ -1,7 +1,17 @@
 """The campaign driver: submit, stream results, commit, retry, cancel, fail cleanly.
 
-``run_campaign`` (re-exported by ``orchestrator._campaign.spec``) takes the campaign's driver
-lock and runs a ``Driver``. What it guarantees under faults (docs/operations.md, "Faults"):
+``run_campaign(spec)`` takes the campaign's driver lock and runs a ``Driver``: it plans
+every (submission, split, index), asks the results store what is already there, and runs
+only the rest, one Ray task per episode, interleaving the submissions so that they progress
+evenly. Results stream back with ``ray.wait`` and each is committed at once. A result whose
+status is ``infra_error``, or a task whose worker died, is recorded as an attempt and run
+again with a new episode id, up to ``spec.retries`` times; then the episode is quarantined
+(held back; the leaderboard marks that submission's final as pending;
+``--retry-quarantined`` runs it again once an organizer decided so). Agent failures are
+final. Its options, report, exit codes and files are ``orchestrator._campaign.driver_io``;
+the Ray cluster and its watch, ``orchestrator._campaign.cluster``.
+
+What it guarantees under faults (docs/operations.md, "Faults"):
 
 * every result is committed once, at once, before anything else is done with it;
 * Ctrl-C / SIGTERM: the running tasks are cancelled, the campaign's containers removed on
@@ -9,7 +19,10 @@ lock and runs a ``Driver``. What it guarantees under faults (docs/operations.md,
 * the store fails (a full disk, an I/O error) or the Ray cluster is lost: the same cancel
   path (for a lost cluster, on this node through the engine directly, the other nodes'
   containers being bounded by their episode watchers), one message, exit 5 or 6; nothing
-  committed is lost and ``eagc campaign rebuild-store`` adds what finished meanwhile;
+  committed is lost and ``eagc campaign rebuild-store`` adds what finished meanwhile. A
+  lost cluster is noticed within seconds (``ClusterWatch``: this node's raylet within about
+  a second, the GCS within ``cluster_patience_s``), before Ray's own 60 s abort, which
+  would skip all of this, even when a Ray call of the driver's waits for the dead GCS;
 * a store that is damaged, or holds fewer results than ``events.jsonl`` says were
   committed (an empty file put in its place), is refused before anything runs;
 * an in-flight episode is charged a retry only when its own node failed.
@@ -23,29 +36,23 @@ from __future__ import annotations
 import logging
 import os
 import sys
-import threading
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from orchestrator._campaign.cluster import ClusterLost, ClusterWatch, ray_connection
 from orchestrator._campaign.disclosure import keep_disclosures
-from orchestrator._campaign.spec import (
+from orchestrator._campaign.driver_io import (
     EXIT_CLUSTER,
     EXIT_STORE,
     CampaignOptions,
     CampaignReport,
-    ClusterLost,
-    ClusterWatch,
     DriverFailure,
     Events,
-    campaign_dir,
     driver_lock,
-    plan,
-    ray_connection,
     sigterm_as_interrupt,
-    store_path,
 )
+from orchestrator._campaign.spec import campaign_dir, plan, store_path
 from orchestrator._results.store import REBUILD, EpisodeKey, StoreDamaged, StoreError
 from schemas import (
     CampaignSpec,
@@ -197,8 +204,8 @@ class Driver:
                 scheduling_strategy=NodeAffinitySchedulingStrategy(node_id=here, soft=False)
             ).remote()
             # Containers a killed earlier driver of this campaign left behind.
-            self._reaped(len(self._off_thread(cleanup_nodes, {"campaign": self.name},
-                                              str(self.folder))))
+            self._reaped(len(self.watch.call(cleanup_nodes, {"campaign": self.name},
+                                             str(self.folder))))
             for sub in self.spec.submissions:
                 if sub.archive is not None and len(ray.nodes()) > 1:
                     self.archives[sub.team] = [ray.put(sub.archive.read_bytes())]
@@ -279,51 +286,9 @@ class Driver:
         self.pending[submit(job, self.board)] = job
 
     def _check_cluster(self) -> None:
-        """ClusterLost once the watch saw the cluster go; this thread then runs the failure
-        path, unless the watch's own thread already does (``_stuck``)."""
-        if self.watch is None or not self.watch.lost.is_set():
-            return
-        if not self.watch.claim():
-            threading.Event().wait()  # ``_stuck`` ends the process
-        raise ClusterLost(f"the Ray cluster stopped answering ({self.watch.reason})")
-
-    def _off_thread(self, fn: Callable[..., Any], *args: Any,
-                    timeout_s: float | None = None) -> Any:
-        """``fn(*args)``, a Ray call that may wait for the GCS as long as Ray retries it
-        (``ray.nodes()`` does, until Ray's own abort after 60 s), run on a thread of its own
-        and waited for in slices: ClusterLost as soon as the watch saw the cluster go,
-        TimeoutError after ``timeout_s``. A thread left waiting ends with the process."""
-        box: dict[str, Any] = {}
-
-        def call() -> None:
-            try:
-                box["value"] = fn(*args)
-            except BaseException as e:  # noqa: BLE001 - raised again in the driver's thread
-                box["error"] = e
-
-        thread = threading.Thread(target=call, daemon=True, name="eagc-ray-call")
-        thread.start()
-        deadline = None if timeout_s is None else time.monotonic() + timeout_s
-        while thread.is_alive():
-            thread.join(0.5)
-            self._check_cluster()
-            if deadline is not None and thread.is_alive() and time.monotonic() > deadline:
-                raise TimeoutError(f"{getattr(fn, '__name__', fn)} took over {timeout_s:g} s")
-        if "error" in box:
-            raise box["error"]
-        return box.get("value")
-
-    def _get(self, ref: Any, timeout_s: float) -> Any:
-        """``ray.get(ref)`` within ``timeout_s`` (GetTimeoutError), waited for in slices so
-        that a lost cluster is noticed meanwhile (ClusterLost)."""
-        import ray
-
-        deadline = time.monotonic() + timeout_s
-        while not ray.wait([ref], timeout=min(0.5, max(0.0, deadline - time.monotonic())))[0]:
-            self._check_cluster()
-            if time.monotonic() >= deadline:
-                raise ray.exceptions.GetTimeoutError(f"no answer within {timeout_s:g} s")
-        return ray.get(ref)
+        """ClusterLost once the watch saw the cluster go (``ClusterWatch.check``)."""
+        if self.watch is not None:
+            self.watch.check()
 
     def _step(self) -> None:
         import ray
@@ -349,7 +314,7 @@ class Driver:
             return
         self._nodes_checked = time.monotonic()
         try:
-            nodes = self._off_thread(ray.nodes, timeout_s=10.0)
+            nodes = self.watch.call(ray.nodes, timeout_s=10.0)
         except ClusterLost:
             raise
         except Exception as e:  # noqa: BLE001 - the GCS is busy: ask again later
@@ -383,7 +348,7 @@ class Driver:
         from orchestrator._campaign.fanout import ProgressBoard
 
         try:
-            events = self._get(self.board.drain.remote(), timeout_s=10)
+            events = self.watch.get(self.board.drain.remote(), timeout_s=10)
         except ray.exceptions.RayError as e:  # the driver's own node is in trouble
             self._check_cluster()
             log.warning("the progress board is gone (%s); starting a new one", e)
@@ -475,7 +440,7 @@ class Driver:
         self.store.record_attempt(self.name, key, retry=job.retry, episode=job.episode,
                                   message=message, node=node, result=result)
         if crashed and reach:  # the dead worker's container and output mount
-            self._reaped(len(self._off_thread(
+            self._reaped(len(self.watch.call(
                 cleanup_nodes, {"campaign": self.name, "episode": job.episode},
                 str(self.folder / job.episode))))
         if self.cancelling:
@@ -532,8 +497,8 @@ class Driver:
             pass
         self.pending.clear()
         try:
-            self._reaped(len(self._off_thread(cleanup_nodes, {"campaign": self.name},
-                                              str(self.folder))))
+            self._reaped(len(self.watch.call(cleanup_nodes, {"campaign": self.name},
+                                             str(self.folder))))
         except ClusterLost:  # lost while cancelling: this node's containers, without Ray
             self._cleanup_here()
 
@@ -593,8 +558,7 @@ class Driver:
         cluster, without Ray and without the driver's thread: the event, this node's
         containers, one line on stderr, exit 6 (``os._exit``: Ray's exit hooks would wait
         for the dead GCS too). Committed results are in the store already."""
-        reason = "" if self.watch is None else f" ({self.watch.reason})"
-        fault = ClusterLost(f"the Ray cluster stopped answering{reason}")
+        fault = self.watch.error()
         message = str(fault)
         try:
             self.events.try_write(Stopped(event="failed", reason="cluster", message=message,

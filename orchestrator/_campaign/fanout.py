@@ -29,7 +29,8 @@ from typing import Any
 
 import ray
 
-from orchestrator._campaign.spec import SLOT, CampaignError
+from orchestrator._campaign.cluster import SLOT
+from orchestrator._campaign.driver_io import CampaignError
 from orchestrator._episode.worker import EpisodeSpec, run_episode
 from orchestrator._results.store import EpisodeKey
 from schemas import CampaignSpec, EpisodeWhere, Started

@@ -83,10 +83,17 @@ def killed_attempts(runs: Path, *, keep_logs: bool = False) -> list[Path]:
 def cleanup(*, campaign: str | None = None, runs: Path | None = None, dry_run: bool = False,
             keep_logs: bool = False, client: Any = None) -> CleanupPlan:
     """Removes (or, ``dry_run``, lists) what dead episodes left; see the module doc."""
-    from orchestrator._runtimes.local import LocalMark, kill_local_agents, local_agents
-
     plan = CleanupPlan()
-    # Containers.
+    _remove_containers(plan, campaign=campaign, dry_run=dry_run, client=client)
+    _stop_local_agents(plan, campaign=campaign, dry_run=dry_run)
+    if runs is not None:
+        _tidy_killed_attempts(plan, runs, dry_run=dry_run, keep_logs=keep_logs)
+    return plan
+
+
+def _remove_containers(plan: CleanupPlan, *, campaign: str | None, dry_run: bool,
+                       client: Any) -> None:
+    """Containers of dead episodes (every one of ``campaign``), through the Docker engine."""
     if client is None:
         from orchestrator._runtimes.docker import docker_client
 
@@ -94,56 +101,69 @@ def cleanup(*, campaign: str | None = None, runs: Path | None = None, dry_run: b
             client = docker_client()
         except Exception as e:  # noqa: BLE001 - no engine: local agents and folders only
             plan.notes.append(f"no Docker engine: containers not looked at ({e})")
-    if client is not None:
-        filters = [f"{LABEL_PREFIX}.managed=true"]
-        if campaign is not None:
-            filters.append(f"{LABEL_PREFIX}.campaign={campaign}")
-        for c in managed_containers(client, filters):
-            if campaign is None and not _dead((c.labels or {}).get(HEARTBEAT_LABEL),
-                                              local=False):
-                plan.kept_live += 1
-                continue
-            plan.containers.append(c.name)
-            if not dry_run:
-                try:
-                    c.remove(force=True)
-                except Exception as e:  # noqa: BLE001 - gone meanwhile
-                    plan.notes.append(f"{c.name}: {e}")
-    # Local agents.
+            return
+    filters = [f"{LABEL_PREFIX}.managed=true"]
+    if campaign is not None:
+        filters.append(f"{LABEL_PREFIX}.campaign={campaign}")
+    for c in managed_containers(client, filters):
+        if campaign is None and not _dead((c.labels or {}).get(HEARTBEAT_LABEL), local=False):
+            plan.kept_live += 1
+            continue
+        plan.containers.append(c.name)
+        if not dry_run:
+            try:
+                c.remove(force=True)
+            except Exception as e:  # noqa: BLE001 - gone meanwhile
+                plan.notes.append(f"{c.name}: {e}")
+
+
+def _stop_local_agents(plan: CleanupPlan, *, campaign: str | None, dry_run: bool) -> None:
+    """Local agent processes of dead episodes (every one of ``campaign``)."""
+    from orchestrator._runtimes.local import LocalMark, kill_local_agents, local_agents
+
     labels = {} if campaign is None else {"campaign": campaign}
 
     def dead(mark: LocalMark) -> bool:
         return campaign is not None or _dead(mark.heartbeat, local=True)
 
-    if dry_run:
-        for pid, mark in local_agents():
-            if mark.matches(labels):
-                if dead(mark):
-                    plan.local_agents.append(f"pid {pid}")
-                else:
-                    plan.kept_live += 1
-    else:
+    if not dry_run:
         plan.local_agents = [f"pid {pid}" for pid, _ in kill_local_agents(labels, only=dead)]
-    # Folders of killed attempts.
-    if runs is not None:
-        for ep in killed_attempts(runs, keep_logs=keep_logs):
-            plan.folders.append(str(ep))
-            for mount in _mounts_under(ep):
-                plan.mounts.append(mount)
-                if not dry_run:
-                    subprocess.run(["umount", "-l", mount], capture_output=True)
-            if dry_run:
-                continue
-            if keep_logs:
-                for child in ep.iterdir():
-                    if child.name != "host":
-                        if child.is_dir() and not child.is_symlink():
-                            shutil.rmtree(child, ignore_errors=True)
-                        else:
-                            child.unlink(missing_ok=True)
-                (ep / "host" / KILLED_MARK).write_text(
-                    "This attempt's worker died before it wrote a result; `eagc cleanup "
-                    "--keep-logs` removed all but host/ (the partial MCAP log).\n")
+        return
+    for pid, mark in local_agents():
+        if mark.matches(labels):
+            if dead(mark):
+                plan.local_agents.append(f"pid {pid}")
             else:
-                shutil.rmtree(ep, ignore_errors=True)
-    return plan
+                plan.kept_live += 1
+
+
+def _tidy_killed_attempts(plan: CleanupPlan, runs: Path, *, dry_run: bool,
+                          keep_logs: bool) -> None:
+    """The folders of killed attempts under ``runs``: output mounts released, then the
+    folder removed, or, with ``keep_logs``, all of it but ``host/``."""
+    for ep in killed_attempts(runs, keep_logs=keep_logs):
+        plan.folders.append(str(ep))
+        for mount in _mounts_under(ep):
+            plan.mounts.append(mount)
+            if not dry_run:
+                subprocess.run(["umount", "-l", mount], capture_output=True)
+        if dry_run:
+            continue
+        if keep_logs:
+            _keep_only_host(ep)
+        else:
+            shutil.rmtree(ep, ignore_errors=True)
+
+
+def _keep_only_host(ep: Path) -> None:
+    """Removes all of a killed attempt's folder but ``host/`` (the partial MCAP log and the
+    snapshots), and says so there."""
+    for child in ep.iterdir():
+        if child.name != "host":
+            if child.is_dir() and not child.is_symlink():
+                shutil.rmtree(child, ignore_errors=True)
+            else:
+                child.unlink(missing_ok=True)
+    (ep / "host" / KILLED_MARK).write_text(
+        "This attempt's worker died before it wrote a result; `eagc cleanup "
+        "--keep-logs` removed all but host/ (the partial MCAP log).\n")

@@ -50,7 +50,7 @@ def _driver_failures() -> Iterator[None]:
     import os
     import sys
 
-    from orchestrator._campaign.spec import EXIT_STORE, DriverFailure
+    from orchestrator._campaign.driver_io import EXIT_STORE, DriverFailure
     from orchestrator._results.store import StoreError
     from orchestrator.cli.common import say_error
 
@@ -146,7 +146,7 @@ def run_cmd(
 ) -> None:
     """Run a campaign, or resume it: only episodes missing from the store are run."""
     from orchestrator._campaign.driver import run_campaign
-    from orchestrator._campaign.spec import CampaignOptions
+    from orchestrator._campaign.driver_io import CampaignOptions
 
     spec = _load(campaign)
     options = CampaignOptions(address=address, workers=workers, metrics_port=metrics_port,

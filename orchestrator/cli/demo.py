@@ -151,7 +151,7 @@ def run_demo(*, runtime: str = "auto", tracks: list[str] | None = None,
     import os
 
     from orchestrator._campaign.driver import run_campaign
-    from orchestrator._campaign.spec import CampaignOptions
+    from orchestrator._campaign.driver_io import CampaignOptions
     from orchestrator.cli.campaign import _print_leaderboard, where_results
     from orchestrator.cli.common import ExitCode
 

@@ -80,8 +80,9 @@ def main() -> None:
     import ray
 
     from orchestrator._campaign.driver import run_campaign
+    from orchestrator._campaign.driver_io import CampaignOptions
     from orchestrator._campaign.seeds import load_secret, seed_list
-    from orchestrator._campaign.spec import CampaignOptions, store_path
+    from orchestrator._campaign.spec import store_path
     from orchestrator._episode.worker import EpisodeSpec, run_episode
     from orchestrator._images.build import build_agent_base, build_folder
     from orchestrator._results.store import ResultsStore

@@ -18,9 +18,10 @@ from mcap.reader import make_reader
 from test_campaign_helpers import short_dir, write_campaign
 
 from orchestrator._campaign.driver import run_campaign
+from orchestrator._campaign.driver_io import CampaignOptions
 from orchestrator._campaign.fanout import EpisodeJob, campaign_labels
 from orchestrator._campaign.seeds import load_secret, seed_list
-from orchestrator._campaign.spec import CampaignOptions, load_campaign
+from orchestrator._campaign.spec import load_campaign
 from orchestrator._episode.worker import EpisodeSpec
 from orchestrator._results.store import EpisodeKey, ResultsStore
 from schemas import EpisodeWhere, Limits

@@ -31,9 +31,10 @@ from test_campaign_helpers import (
 from typer.testing import CliRunner
 
 from orchestrator._campaign.driver import run_campaign
+from orchestrator._campaign.driver_io import CampaignOptions
 from orchestrator._campaign.metrics import CampaignMetrics
 from orchestrator._campaign.seeds import load_secret, seed_list
-from orchestrator._campaign.spec import CampaignOptions, load_campaign, store_path
+from orchestrator._campaign.spec import load_campaign, store_path
 from orchestrator._results.leaderboard import build_leaderboard
 from orchestrator._results.store import ResultsStore
 from orchestrator.cli.campaign import campaign_app

@@ -10,8 +10,9 @@ from typing import Any
 import pytest
 from test_campaign_helpers import build_campaign_images
 
+from orchestrator._campaign.driver_io import CampaignError
 from orchestrator._campaign.fanout import EpisodeJob, _ensure_image, pin_images
-from orchestrator._campaign.spec import CampaignError, load_campaign, plan
+from orchestrator._campaign.spec import load_campaign, plan
 from orchestrator._episode.worker import EpisodeSpec
 from orchestrator._runtimes.interface import InfraError
 from schemas import SchemaError

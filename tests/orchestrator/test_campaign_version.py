@@ -21,7 +21,8 @@ from test_campaign_helpers import short_dir, write_campaign
 
 import orchestrator._campaign.fanout as fanout
 from orchestrator._campaign.driver import run_campaign
-from orchestrator._campaign.spec import CampaignOptions, load_campaign
+from orchestrator._campaign.driver_io import CampaignOptions
+from orchestrator._campaign.spec import load_campaign
 
 
 def test_code_version_follows_the_sources(tmp_path: Path) -> None:

@@ -11,7 +11,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from orchestrator._campaign.spec import ClusterWatch
+from orchestrator._campaign.cluster import ClusterWatch
 
 
 class Listener:
@@ -136,4 +136,28 @@ def test_a_claimed_loss_is_left_to_the_driver(gcs: Listener, raylet: Listener) -
         assert watch.claim()
         assert not called.wait(1.5)
     finally:
+        watch.close()
+
+
+def test_a_call_that_waits_for_a_lost_cluster_ends_in_cluster_lost(gcs: Listener,
+                                                                   raylet: Listener) -> None:
+    """A Ray call that would wait for the dead GCS (``ray.nodes()`` does, until Ray's own
+    abort) is waited for in slices: ClusterLost as soon as the cluster is lost."""
+    from orchestrator._campaign.cluster import ClusterLost
+
+    watch = _watch(gcs, raylet, interval_s=0.1, grace_s=30.0)
+    never = threading.Event()
+    try:
+        assert watch.call(lambda a, b: a + b, 2, 3) == 5
+        with pytest.raises(ZeroDivisionError):
+            watch.call(lambda: 1 / 0)
+        with pytest.raises(TimeoutError):
+            watch.call(never.wait, timeout_s=0.6)
+        threading.Timer(0.3, raylet.close).start()
+        start = time.monotonic()
+        with pytest.raises(ClusterLost, match="raylet"):
+            watch.call(never.wait)
+        assert time.monotonic() - start < 3.0
+    finally:
+        never.set()
         watch.close()

@@ -349,7 +349,7 @@ def write_manifest(channel: Channel, phase: str, out: Path | None = None, *,
     key = signing_key(channel.data / "keys")
     data = _stored_manifest(channel, final.name)
     if data is None:
-        data = canonical(build_manifest(channel, final, written_at=due or now))
+        data = canonical(build_manifest(channel, final, written_at=now))
         with channel.db.tx() as db:
             db.execute("INSERT OR IGNORE INTO manifests VALUES (?, ?, ?)",
                        (final.name, now.timestamp(), data))
@@ -409,11 +409,14 @@ def verify(manifest: Path, *, key: Path | None = None, files: Path | None = None
     from cryptography.hazmat.primitives import serialization
     from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PublicKey
 
-    body = manifest.read_bytes()
+    try:
+        body = manifest.read_bytes()
+    except OSError as e:
+        raise ChannelError(f"cannot read the manifest {manifest}: {e.strerror or e}") from None
     pub_path = _public_key(manifest, key, data)
-    pub = serialization.load_pem_public_key(pub_path.read_bytes())
     sig_path = manifest.with_suffix(".sig")
     try:
+        pub = serialization.load_pem_public_key(pub_path.read_bytes())
         sig = base64.b64decode(sig_path.read_bytes().strip(), validate=True)
         if not isinstance(pub, Ed25519PublicKey):
             raise InvalidSignature
@@ -472,6 +475,7 @@ def _check_runs(doc: Mapping[str, Any], runs: Path) -> Iterator[Check]:
         return
     yield Check("seed commitment", True, doc["seed_commitment"][:16] + "…")
     want = {f["team"]: f["image_id"] for f in doc["finalists"]}
+    disclosures = {f["team"]: f["files"]["disclosure"]["sha256"] for f in doc["finalists"]}
     ran: dict[str, set[str]] = {}
     for e in results:
         ran.setdefault(e.key.submission, set()).add(e.result.image)
@@ -490,9 +494,16 @@ def _check_runs(doc: Mapping[str, Any], runs: Path) -> Iterator[Check]:
             return
         kept = runs / name / FOLDER / f"{team}.json" if runs.is_dir() else None
         if kept is not None and kept.is_file():
-            pinned = json.loads(kept.read_text()).get("digest")
-            if pinned != image_id:
-                yield Check(f"image {team}", False, f"the campaign pinned {pinned} for "
-                            f"{team}, not the manifest's {image_id[:19]}")
+            record = json.loads(kept.read_text())
+            if record.get("digest") != image_id:
+                yield Check(f"image {team}", False, f"the campaign pinned "
+                            f"{record.get('digest')} for {team}, not the manifest's "
+                            f"{image_id[:19]}")
+                return
+            frozen_sha = "sha256:" + disclosures[team]
+            if record.get("sha256") not in (None, frozen_sha):
+                yield Check(f"disclosure {team}", False, f"the campaign kept a disclosure "
+                            f"for {team} other than the frozen one "
+                            f"({str(record.get('sha256'))[:19]}…, not {frozen_sha[:19]}…)")
                 return
         yield Check(f"image {team}", True, f"every episode ran {image_id[:19]}")

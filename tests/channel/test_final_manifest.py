@@ -197,7 +197,14 @@ def test_runs_must_have_run_exactly_the_manifest_images(channel: Channel,
         return path.parent
 
     good = store("good", images)
+    kept = good / spec.name / "submissions" / "team-a.json"
+    kept.parent.mkdir(parents=True)
+    sha = "sha256:" + doc["finalists"][0]["files"]["disclosure"]["sha256"]
+    kept.write_text(json.dumps({"team": "team-a", "digest": images["team-a"], "sha256": sha}))
     assert all(c.ok for c in verify(manifest, runs=good))
+    # The campaign's record of what it pinned for a team must be the manifest's image too.
+    kept.write_text(json.dumps({"team": "team-a", "digest": "sha256:" + "d" * 64}))
+    assert [c.name for c in verify(manifest, runs=good) if not c.ok] == ["image team-a"]
     swapped = store("swapped", {**images, "team-b": "sha256:" + "e" * 64})
     failed = [c for c in verify(manifest, runs=swapped) if not c.ok]
     assert [c.name for c in failed] == ["image team-b"]
@@ -215,7 +222,7 @@ def test_the_commands_on_a_channel_folder(tmp_path: Path) -> None:
         "phases": [{"name": "final", "kind": "final", "closes": "start+2d",
                     "splits": [{"name": "standard", "episodes": 1}]}]})
     data = tmp_path / "data"
-    ch = Channel(spec, data, clock=Clock(origin=time.time() - 3 * 86400, speed=0.0))
+    ch = Channel(spec, data, clock=Clock(origin=float(int(time.time()) - 3 * 86400), speed=0.0))
     ch.add_spec_teams()
     ch.db.set_meta("spec", spec.model_dump_json())  # what `serve` keeps for the commands
     ch.registry = RegistryProcess(tmp_path / "registry", ch.keys, realm="http://unused",

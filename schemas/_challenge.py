@@ -103,9 +103,30 @@ class ChallengePhase(_Model):
                                            "their teams see whole (per-episode scores, the "
                                            "viewer): their seeds are then no secret. The "
                                            "others show a score, an interval and verdicts.")
+    who: Literal["all", "finalists"] = Field(
+        default="all", description="Who may submit: every team, or the phase's finalists "
+        "(`eagc challenge finalists PHASE TEAM…`).")
+    board: Literal["public", "team", "organizers"] = Field(
+        default="team", description="Who sees the phase's board while it runs: anyone "
+        "(public), each team its own row and rank range (team), or organizers only.")
+    counts: Literal["latest", "selected", "best"] = Field(
+        default="latest", description="Which scored submission of a team the board counts: "
+        "its latest, the one it selected before the deadline (its latest if none), or its "
+        "best (public splits only: on hidden seeds the best of several draws is luck).")
 
     _when = field_validator("opens", "closes")(
         classmethod(lambda cls, v: v if v is None else _check_when(v)))
+
+    @model_validator(mode="after")
+    def _best_only_public(self) -> ChallengePhase:
+        hidden = [s.name for s in self.splits if s.name not in self.public_splits]
+        if self.counts == "best" and hidden:
+            raise ValueError(f"counts: 'best' picks the luckiest draw on hidden seeds; "
+                             f"splits {hidden} are not public: count 'latest' or 'selected'")
+        unknown = sorted(set(self.public_splits) - {s.name for s in self.splits})
+        if unknown:
+            raise ValueError(f"public_splits names splits the phase does not play: {unknown}")
+        return self
 
 
 class ChallengeSpec(_Model):

@@ -11,6 +11,10 @@ as one that does not exist.
     POST /api/v1/submissions                submit an image of the team's repository
     GET  /api/v1/submissions[/{id}]         the team's submissions
     POST /api/v1/submissions/{id}/cancel    cancel one of the team's, waiting or running
+    POST /api/v1/submissions/{id}/select    the one the board counts (phase counts: selected)
+    GET  /api/v1/phases                     the calendar (public): windows, rules, commitments
+    GET  /api/v1/phases/{p}/seeds           a closed phase's seeds (public), as committed
+    GET  /calendar                          the calendar as a page
     GET  /api/v1/quota                      what the team has left today, when it resets
     GET  /api/v1/board                      the open phase's board (teams' latest scored)
     POST /api/v1/runner/claim               runner: take a pre-flight or a run
@@ -36,9 +40,10 @@ from fastapi.responses import JSONResponse, Response
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from orchestrator._channel import pages
-from orchestrator._channel.channel import Channel, utc_text
+from orchestrator._channel.channel import Channel, aoe_text, utc_text
 from orchestrator._channel.db import ChannelError
 from orchestrator._channel.metrics import ChannelMetrics
+from orchestrator._channel.pages import calendar_page
 from orchestrator._channel.registry import RUNNER, grant
 from schemas import Claim, Outcome, Progress, QuotaView, SubmissionView, SubmitRequest, Work
 
@@ -74,15 +79,12 @@ def _runner(request: Request, authorization: Annotated[str | None, Header()] = N
 _OVER = f"request body over {MAX_BODY // 1024} KiB"
 
 
-class _TooLarge(BaseException):
-    """Raised while a body is read past the cap; a BaseException so that no handler
-    between here and ``BodyCap`` (FastAPI turns a failed body read into a 400) takes it."""
-
-
 class BodyCap:
     """Refuses a request whose body is over ``limit`` bytes, however it is sent: by its
-    Content-Length at once, a chunked one as soon as the bytes received pass the limit
-    (so nothing past it is ever held in memory). The refusal is recorded off the loop."""
+    Content-Length at once, a chunked one as soon as the bytes received pass the limit (so
+    nothing past it is ever held in memory): the 413 is sent there and then, the app is
+    told the client left, and whatever it answers after is dropped. The refusal is
+    recorded off the event loop."""
 
     def __init__(self, app: Any, limit: int, record: Any) -> None:
         self.app, self.limit, self.record = app, limit, record
@@ -96,27 +98,27 @@ class BodyCap:
             await self._refuse(scope, receive, send)
             return
         seen = 0
-        started = False
+        refused = False
 
         async def counted() -> Any:
-            nonlocal seen
+            nonlocal seen, refused
+            if refused:
+                return {"type": "http.disconnect"}
             message = await receive()
             if message["type"] == "http.request":
                 seen += len(message.get("body", b""))
                 if seen > self.limit:
-                    raise _TooLarge
+                    refused = True
+                    scope["eagc.refused"] = True  # what the app answers next is not kept
+                    await self._refuse(scope, receive, send)
+                    return {"type": "http.disconnect"}
             return message
 
         async def sending(message: Any) -> None:
-            nonlocal started
-            started = started or message["type"] == "http.response.start"
-            await send(message)
+            if not refused:
+                await send(message)
 
-        try:
-            await self.app(scope, counted, sending)
-        except _TooLarge:
-            if not started:
-                await self._refuse(scope, receive, send)
+        await self.app(scope, counted, sending)
 
     async def _refuse(self, scope: Any, receive: Any, send: Any) -> None:
         from starlette.concurrency import run_in_threadpool
@@ -147,7 +149,9 @@ def create_app(channel: Channel) -> FastAPI:
         """The one-line JSON refusal, kept in the database with who asked what (called
         on a worker thread: the event loop never waits for the disk)."""
         client = request.client.host if request.client else "?"
-        channel.db.record_refusal(client, request.method, request.url.path, status, detail)
+        if not request.scope.get("eagc.refused"):
+            channel.db.record_refusal(client, request.method, request.url.path, status,
+                                      detail)
         return JSONResponse({"detail": detail}, status_code=status, headers=headers)
 
     # Plain functions: Starlette runs them on its thread pool.
@@ -212,16 +216,49 @@ def create_app(channel: Channel) -> FastAPI:
         return channel.quota(who)
 
     @app.get("/api/v1/board")
-    def board(who: Team) -> dict[str, Any]:
-        phase = channel.open_phase()
-        b = channel.board(phase)
-        if b is None:
-            return {"phase": phase.name, "rows": []}
-        return {"phase": phase.name, "rows": [
+    def board(who: Team, phase: str | None = None) -> dict[str, Any]:
+        """The board of the open phase (or ``phase``), as its ``board`` setting allows: all
+        rows (public), the team's own row (team), or nothing (organizers)."""
+        p = channel.phase(phase) if phase else channel.open_phase()
+        if p.board == "organizers":
+            raise ChannelError(f"the board of phase {p.name} is for the organizers until "
+                               "its results are released", 403)
+        b = channel.board(p)
+        rows = [] if b is None else [
             {"rank": r.rank, "ranks": r.ranks, "team": r.team, "final": r.final,
              "low": r.interval.low if r.interval else None,
              "high": r.interval.high if r.interval else None, "episodes": r.episodes}
-            for r in b.rows]}
+            for r in b.rows if p.board == "public" or r.team == who]
+        return {"phase": p.name, "board": p.board, "counts": p.counts,
+                "teams": 0 if b is None else len(b.rows), "rows": rows}
+
+    @app.post("/api/v1/submissions/{sid}/select")
+    def select(sid: str, who: Team) -> SubmissionView:
+        channel.select(sid, who)
+        return channel.view(sid, team=who)
+
+    @app.get("/api/v1/phases")
+    def phases() -> list[dict[str, Any]]:
+        """The calendar, public: each phase's window in UTC and AoE, its rules and its
+        seed commitment (published before it opens; its seeds after it closes)."""
+        return [{"name": w.phase.name, "kind": w.phase.kind,
+                 "opens": utc_text(w.opens), "opens_aoe": aoe_text(w.opens),
+                 "closes": None if w.closes is None else utc_text(w.closes),
+                 "closes_aoe": None if w.closes is None else aoe_text(w.closes),
+                 "who": w.phase.who, "board": w.phase.board, "counts": w.phase.counts,
+                 "commitment": channel.seeds(w.phase)[0]} for w in channel.windows()]
+
+    @app.get("/api/v1/phases/{phase}/seeds")
+    def revealed(phase: str) -> Response:
+        return Response(channel.reveal(channel.phase(phase)), media_type="text/plain")
+
+    @app.get("/calendar", include_in_schema=False)
+    def calendar() -> Response:
+        from fastapi.responses import HTMLResponse
+
+        return HTMLResponse(calendar_page(channel, phases()), headers={
+            "Content-Security-Policy": "default-src 'none'; style-src 'unsafe-inline'; "
+            "img-src data:; base-uri 'none'; frame-ancestors 'none'"})
 
     @app.post("/api/v1/runner/claim")
     def claim(c: Claim, _: Runner) -> Response:

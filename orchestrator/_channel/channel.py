@@ -225,6 +225,9 @@ class Channel:
         paused = self.db.meta("paused")
         if paused:
             raise ChannelError(f"the organizers paused the channel: {paused}", 503)
+        if phase.who == "finalists" and team not in self.finalists(phase):
+            raise ChannelError(f"phase {phase.name} admits its finalists only, and team "
+                               f"{team} is not one of them", 403)
         day = self.db.day()
         c = self._counts(db, team, phase.name, day)
         q = phase.quota
@@ -517,27 +520,113 @@ class Channel:
                 "final_high": mine.interval.high if mine.interval else final,
                 "splits": splits}
 
+    # ------------------------------------------------------------------ the phase's rules
+    def finalists(self, phase: ChallengePhase) -> list[str]:
+        """The teams a finalists-only phase admits (set by the organizers)."""
+        return list(json.loads(self.db.meta(f"finalists:{phase.name}") or "[]"))
+
+    def set_finalists(self, phase: ChallengePhase, teams: list[str], *, who: str,
+                      why: str) -> None:
+        unknown = [t for t in teams if not self.db.has_team(t)]
+        if unknown:
+            raise ChannelError(f"no team {', '.join(unknown)}", 404)
+        with self.db.tx() as db:
+            db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                       (f"finalists:{phase.name}", json.dumps(sorted(teams))))
+            self.db.record_action(db, who, "finalists", phase.name,
+                                  f"{', '.join(sorted(teams))}: {why}")
+
+    def select(self, sid: str, team: str) -> None:
+        """The team's choice of the submission its board counts (phase ``counts:
+        selected``), made while the phase is open."""
+        row = self.row_for(sid, team)
+        phase = self.phase(row.phase)
+        window = next(w for w in self.windows() if w.phase.name == phase.name)
+        if not window.open_at(self.clock.utc()):
+            raise ChannelError(f"phase {phase.name} is closed: its selection is final", 403)
+        if phase.counts != "selected":
+            raise ChannelError(f"phase {phase.name} counts each team's {phase.counts} "
+                               "submission: there is nothing to select", 409)
+        with self.db.tx() as db:
+            db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                       (f"selected:{phase.name}:{team}", sid))
+            self.db._history(db, sid, row.state, "selected by the team for the board")
+
+    def counted(self, phase: ChallengePhase) -> dict[str, Row]:
+        """Per team, the scored submission the phase's board counts (``counts``): its
+        latest; the one it selected (its latest if none or not scored); or its best final
+        (public splits only). A submission accepted before the deadline counts though it
+        ran after it."""
+        scored: dict[str, list[Row]] = {}
+        for r in self.db.rows(phase=phase.name, states=(S.SCORED,)):
+            scored.setdefault(r.team, []).append(r)
+        out = {}
+        for team, rows in scored.items():
+            latest = max(rows, key=lambda r: (r.updated_at, r.created_at, r.id))
+            if phase.counts == "best":
+                out[team] = max(rows, key=lambda r: ((r.result or {}).get("final") or 0.0,
+                                                     r.updated_at))
+            elif phase.counts == "selected":
+                chosen = self.db.meta(f"selected:{phase.name}:{team}")
+                out[team] = next((r for r in rows if r.id == chosen), latest)
+            else:
+                out[team] = latest
+        return out
+
     def board(self, phase: ChallengePhase) -> Any:
-        """The phase's leaderboard: each team's latest scored submission, with intervals
-        and rank ranges from the paired episodes; rows named by team."""
+        """The phase's leaderboard: each team's counted submission (``counted``), with
+        intervals and rank ranges from the paired episodes; rows named by team."""
         from orchestrator._results.leaderboard import build_leaderboard
 
-        latest: dict[str, Row] = {}
-        for r in self.db.rows(phase=phase.name, states=(S.SCORED,)):
-            if r.team not in latest or r.updated_at >= latest[r.team].updated_at:
-                latest[r.team] = r
-        if not latest:
+        counted = self.counted(phase)
+        if not counted:
             return None
-        subs = tuple(Submission(team=r.id, image=r.repository) for r in latest.values())
+        subs = tuple(Submission(team=r.id, image=r.repository) for r in counted.values())
         spec = self.campaign(phase, self.data / "runs", subs)
         with self.store() as store:
             board = build_leaderboard(spec, store)
-        names = {r.id: r.team for r in latest.values()}
+        names = {r.id: r.team for r in counted.values()}
         for row in board.rows:
             row.team = names.get(row.team, row.team)
         for f in board.failures:
             object.__setattr__(f, "team", names.get(f.team, f.team))
         return board
+
+    def seeds(self, phase: ChallengePhase) -> tuple[str, str]:
+        """(the phase's seed commitment, the text it commits to)."""
+        from orchestrator._campaign.seeds import (
+            commitment,
+            load_secret,
+            revealed_text,
+            seed_list,
+        )
+
+        spec = self.campaign(phase, self.data / "runs")
+        seeds = seed_list(spec, load_secret(spec))
+        return commitment(spec, seeds), revealed_text(spec, seeds)
+
+    def check_seeds_apart(self) -> None:
+        """ChannelError if a seed of one phase is also a seed of another (each phase draws
+        from its own secret: a reused seed would let one phase's episodes leak into the
+        next)."""
+        seen: dict[int, str] = {}
+        for phase in self.spec.phases:
+            for line in self.seeds(phase)[1].splitlines():
+                seed = int(line.rsplit(" ", 1)[1])
+                if seed in seen and seen[seed] != phase.name:
+                    raise ChannelError(f"phases {seen[seed]} and {phase.name} share a seed: "
+                                       "give one of them another secret")
+                seen[seed] = phase.name
+
+    def reveal(self, phase: ChallengePhase) -> str:
+        """The seeds of a closed phase, as its commitment committed to them."""
+        window = next(w for w in self.windows() if w.phase.name == phase.name)
+        if window.closes is None or self.clock.utc() < window.closes:
+            when = "is open until closed" if window.closes is None else (
+                f"closes {utc_text(window.closes)}")
+            raise ChannelError(f"phase {phase.name} {when}: its seeds are revealed after",
+                               403)
+        return self.seeds(phase)[1]
 
 
 def _verdict(index: int, result: EpisodeResult) -> dict[str, Any]:
@@ -569,3 +658,8 @@ def split_reference(image: str) -> tuple[str, str]:
 
 def utc_text(t: datetime) -> str:
     return t.astimezone(UTC).strftime("%Y-%m-%d %H:%M UTC")
+
+
+def aoe_text(t: datetime) -> str:
+    """The time Anywhere on Earth (UTC-12), as the paper's deadlines are written."""
+    return (t.astimezone(UTC) - timedelta(hours=12)).strftime("%Y-%m-%d %H:%M AoE")

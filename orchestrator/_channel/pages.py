@@ -149,7 +149,8 @@ class Pages:
                           closed="")
             quota = ch.quota(team)
         views = list(reversed(ch.submissions(team)))  # newest first
-        on_board = _latest_scored(views)
+        on_board = {p.name: row.id for p in ch.spec.phases
+                    if (row := ch.counted(p).get(team)) is not None}
         scored = [self._scored(v, on_board.get(v.phase) == v.id, team) for v in views
                   if v.state == S.SCORED]
         live = any(not v.state.final for v in views)
@@ -159,7 +160,7 @@ class Pages:
 
     def _scored(self, v: SubmissionView, on_board: bool, team: str) -> dict[str, Any]:
         rank = None
-        if on_board:
+        if on_board and self.channel.phase(v.phase).board != "organizers":
             board = self.board(v.phase)
             mine = next((r for r in board.rows if r.team == team), None) if board else None
             if mine is not None and mine.rank_range is not None:
@@ -256,17 +257,6 @@ class Pages:
 def _headers(csp: str) -> dict[str, str]:
     return {"Content-Security-Policy": csp, "Cache-Control": "no-store",
             "Referrer-Policy": "no-referrer", "X-Content-Type-Options": "nosniff"}
-
-
-def _latest_scored(views: list[SubmissionView]) -> dict[str, str]:
-    """Per phase, the team's submission on the board: its latest scored (the rule of
-    ``Channel.board``: the last updated, the later created on a tie)."""
-    latest: dict[str, SubmissionView] = {}
-    for v in sorted(views, key=lambda v: (v.created_at, v.id)):
-        if v.state == S.SCORED and (v.phase not in latest
-                                    or v.updated_at >= latest[v.phase].updated_at):
-            latest[v.phase] = v
-    return {p: v.id for p, v in latest.items()}
 
 
 def _short_image(image: str) -> str:
@@ -395,3 +385,10 @@ def mount(app: FastAPI) -> None:
             return refused(problem) if problem else RedirectResponse("/login", 303)
         return pages.episode_page(team, sid, split, index)
 
+
+def calendar_page(channel: Channel, phases: list[dict[str, Any]]) -> str:
+    """The challenge's calendar: every window in UTC and Anywhere on Earth, each phase's
+    rules and seed commitment (public: nothing here is secret)."""
+    now = channel.clock.utc()
+    return str(_env().get_template("calendar.html").render(
+        challenge=channel.spec.name, track=channel.spec.track, phases=phases, now=now))

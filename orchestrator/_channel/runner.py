@@ -200,9 +200,18 @@ class Runner:
 
         image = self.pull(work)
         base = self.campaign(work.phase)
+        archive = None
+        if self.address:  # other nodes get the image from the driver, by its pinned ID
+            archive = self.runs.resolve() / "images" / f"{work.id}.tar"
+            if not archive.is_file():
+                archive.parent.mkdir(parents=True, exist_ok=True)
+                with archive.open("wb") as f:
+                    for chunk in image.save(named=False):
+                        f.write(chunk)
         spec = base.model_copy(update={
             "output": self.runs.resolve(),
-            "submissions": (Submission(team=work.id, image=work.image, digest=image.id),)})
+            "submissions": (Submission(team=work.id, image=work.image, digest=image.id,
+                                       archive=archive),)})
         beat.image_id = image.id
         beat.planned = sum(s.episodes for s in spec.splits)
         beat.store = self.runs.resolve() / "results.sqlite"

@@ -117,22 +117,31 @@ def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int
     for phase in spec.phases:
         if phase.secret is None:
             channel.phase_secret(phase)
+    channel.check_seeds_apart()
     served = Served(f"http://{host}:{port}", registry.address, data)
     (data / "serve.json").write_text(json.dumps(
         {"url": served.url, "registry": served.registry, "pid": os.getpid()}))
-    child = _start_runner(served, workers, address) if runner else None
+    runners = [_start_runner(served, workers, address)] if runner else []
     say(f"channel {spec.name}: {served.url}  registry {served.registry}  data {data}"
-        + ("" if child else "  (no runner)"))
+        + ("" if runners else "  (no runner)"))
     config = uvicorn.Config(create_app(channel), host=host, port=port, log_level="warning",
                             access_log=False)
     stop = threading.Event()
-    threading.Thread(target=_watch, args=(channel, registry, stop), daemon=True,
-                     name="eagc-watch").start()
+
+    def runner_again() -> None:
+        """A runner that exited (a lost Ray cluster ends its process) is started again;
+        what it held comes back to the queue when its lease runs out."""
+        if runners and runners[0].poll() is not None and not stop.is_set():
+            log.warning("the runner exited (%s): starting another", runners[0].returncode)
+            runners[0] = _start_runner(served, workers, address)
+
+    threading.Thread(target=_watch, args=(channel, registry, stop, runner_again),
+                     daemon=True, name="eagc-watch").start()
     try:
         uvicorn.Server(config).run()
     finally:
         stop.set()
-        if child is not None:
+        for child in runners:
             _stop(child)
         registry.stop()
         channel.db.close()
@@ -140,10 +149,12 @@ def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int
 
 
 def _watch(channel: Channel, registry: RegistryProcess, stop: threading.Event,
-           every_s: float = 5.0) -> None:
-    """Puts back what a dead runner held, even when no runner is left to claim work, and
-    starts the registry again should it die (on the same port: pushes resume)."""
+           runner_again: Callable[[], None], every_s: float = 5.0) -> None:
+    """Puts back what a dead runner held, even when no runner is left to claim work;
+    starts the registry again should it die (on the same port: pushes resume), and the
+    runner."""
     while not stop.wait(every_s):
+        runner_again()
         try:
             for sid in channel.expire_leases():
                 log.warning("%s: its runner stopped answering; back in line", sid)

@@ -188,6 +188,9 @@ def submissions_cmd(
                                         "when it resets.")] = False,
     cancel: Annotated[bool, typer.Option("--cancel", help="Cancel submission ID (waiting "
                                          "or running); its slot is free at once.")] = False,
+    select: Annotated[bool, typer.Option("--select", help="Make submission ID the one the "
+                                         "board counts (phases that count 'selected').")
+                      ] = False,
 ) -> None:
     """Your team's submissions: state, queue position, ETA, scores; --quota, --cancel."""
     from orchestrator._channel.client import ChannelClient, load_login
@@ -207,6 +210,12 @@ def submissions_cmd(
         out.print(f"  resets {q.resets_at:%Y-%m-%d %H:%M} UTC; {q.active} of {q.concurrent} "
                   f"waiting or running; {q.failed_preflights} of "
                   f"{q.failed_preflights_per_day} failed pre-flights", highlight=False)
+        return
+    if select:
+        if sid is None:
+            raise UsageError("--select needs the submission's ID")
+        client.call("POST", f"/api/v1/submissions/{sid}/select")
+        out.print(f"{sid} is the submission the board counts", highlight=False)
         return
     if cancel:
         if sid is None:
@@ -308,6 +317,19 @@ def queue_cmd(data: DataOpt = DEFAULT_DATA) -> None:
         out.print(f"{v.team:<12} {_line(v)}", highlight=False)
     if ch.db.meta("paused"):
         out.print(f"PAUSED: {ch.db.meta('paused')}", highlight=False)
+
+
+@challenge_app.command("finalists")
+def finalists_cmd(phase: Annotated[str, typer.Argument(help="A phase that admits its "
+                                                       "finalists only.")],
+                  teams: Annotated[list[str], typer.Argument(help="The finalists.")],
+                  why: WhyOpt, data: DataOpt = DEFAULT_DATA) -> None:
+    """Name the teams a finalists-only phase admits."""
+    from orchestrator._channel.serve import open_channel
+
+    ch = open_channel(data)
+    ch.set_finalists(ch.phase(phase), teams, who=_who(), why=why)
+    out.print(f"phase {phase} admits {', '.join(sorted(teams))}", highlight=False)
 
 
 @challenge_app.command("cancel")

@@ -288,3 +288,93 @@ def test_the_organizers_hand_is_recorded_with_who_when_and_why(tmp_path: Path) -
     assert [(w, act) for _, w, act, _, _ in ch.db.actions()] == [
         ("alice", "cancel"), ("alice", "rerun"), ("bob", "pause"), ("bob", "resume"),
         ("bob", "disable"), ("carol", "refund")]
+
+
+def _phase_channel(tmp_path: Path, **phase: object) -> Channel:
+    doc = {"name": "open", "closes": "start+1d", "quota": {"per_day": 10, "concurrent": 10},
+           "splits": [{"name": "standard", "episodes": 2}]}
+    doc.update(phase)
+    ch = Channel(_spec(phases=[doc]), tmp_path / "p", clock=Clock(origin=T0, speed=0.0))
+    ch.add_spec_teams()
+    ch.registry = RegistryProcess(tmp_path / "reg", ch.keys, realm="http://unused", port=5999)
+    return ch
+
+
+def _scored(ch: Channel, sid: str, final: float) -> None:
+    with ch.db.tx() as db:  # as a run's report leaves it (the board's rows are its store's)
+        db.execute("UPDATE submissions SET state='scored', result=? WHERE id=?",
+                   (f'{{"final": {final}}}', sid))
+    _advance(ch, 1)
+
+
+def test_a_finalists_phase_admits_its_finalists_only(tmp_path: Path) -> None:
+    ch = _phase_channel(tmp_path, who="finalists", kind="final")
+    with pytest.raises(ChannelError, match="admits its finalists only"):
+        _accept(ch)
+    ch.set_finalists(ch.open_phase(), ["team-a"], who="org", why="ranks 1-2 <= K")
+    _accept(ch)
+    with pytest.raises(ChannelError) as e:
+        _accept(ch, "team-b")
+    assert e.value.status == 403
+    assert ch.db.actions()[-1][2:] == ("finalists", "open", "team-a: ranks 1-2 <= K")
+
+
+def test_which_submission_the_board_counts(tmp_path: Path) -> None:
+    latest = _phase_channel(tmp_path / "l")
+    a1, a2 = _accept(latest), _accept(latest)
+    _scored(latest, a1, 80.0)
+    _scored(latest, a2, 40.0)
+    assert latest.counted(latest.open_phase())["team-a"].id == a2
+    with pytest.raises(ChannelError, match="nothing to select"):
+        latest.select(a1, "team-a")
+
+    chosen = _phase_channel(tmp_path / "s", counts="selected")
+    s1, s2 = _accept(chosen), _accept(chosen)
+    _scored(chosen, s1, 80.0)
+    _scored(chosen, s2, 40.0)
+    assert chosen.counted(chosen.open_phase())["team-a"].id == s2  # none chosen: latest
+    chosen.select(s1, "team-a")
+    assert chosen.counted(chosen.open_phase())["team-a"].id == s1
+    with pytest.raises(ChannelError) as theirs:
+        chosen.select(s1, "team-b")
+    assert theirs.value.status == 404
+    _advance(chosen, 86400)  # the deadline has passed: the choice stands
+    with pytest.raises(ChannelError, match="closed: its selection is final"):
+        chosen.select(s2, "team-a")
+
+    with pytest.raises(ValidationError, match="luckiest draw on hidden seeds"):
+        _spec(phases=[{"name": "x", "counts": "best",
+                       "splits": [{"name": "standard", "episodes": 1}]}])
+    best = _phase_channel(tmp_path / "b", counts="best", public_splits=["standard"])
+    b1, b2 = _accept(best), _accept(best)
+    _scored(best, b1, 80.0)
+    _scored(best, b2, 40.0)
+    assert best.counted(best.open_phase())["team-a"].id == b1
+
+
+def test_seeds_are_committed_before_and_revealed_after_a_phase(tmp_path: Path) -> None:
+    import hashlib
+
+    ch = _phase_channel(tmp_path)
+    commitment, text = ch.seeds(ch.open_phase())
+    assert hashlib.sha256(text.encode()).hexdigest() == commitment
+    assert text.splitlines()[0].startswith("rules-open/standard/0 ")
+    with pytest.raises(ChannelError, match="its seeds are revealed after"):
+        ch.reveal(ch.open_phase())
+    _advance(ch, 86400)
+    assert ch.reveal(ch.phase("open")) == text
+    ch.check_seeds_apart()  # one phase: nothing shared
+
+
+def test_two_phases_never_share_a_seed(tmp_path: Path) -> None:
+    """Even with one secret for both, two phases draw different seeds (the campaign's name
+    is part of every seed), and the channel checks it when it starts."""
+    secret = tmp_path / "one.secret"
+    secret.write_text("the same secret for both\n")
+    secret.chmod(0o600)
+    phases = [{"name": n, "secret": f"file:{secret}",
+               "splits": [{"name": "standard", "episodes": 200}]} for n in ("qual", "final")]
+    ch = Channel(_spec(phases=phases), tmp_path / "d", clock=Clock(origin=T0, speed=0.0))
+    qual, final = (set(ch.seeds(p)[1].split()[1::2]) for p in ch.spec.phases)
+    assert len(qual) == len(final) == 200 and not qual & final
+    ch.check_seeds_apart()

@@ -333,3 +333,28 @@ def test_refusals_are_the_apis_and_the_cookie_is_strict(served: Served) -> None:
     r = s.get(f"{url}/team")
     assert r.status_code == 401 and "was revoked on 2026-05-01" in r.text
     assert s.get(f"{url}/team", allow_redirects=False).status_code == 303  # to /login
+
+
+def test_the_calendar_shows_every_window_in_utc_and_aoe(served: Served,
+                                                        browser: Browser) -> None:
+    errors = browser.open(f"{served.url}/calendar")
+    assert not errors, errors
+    assert browser.evaluate("document.title") == "page-ci: calendar"
+    row = str(browser.evaluate(
+        "document.querySelector('tr[data-phase=open]').innerText"))
+    # The phase opens at the channel's first start (T0, 12:00 UTC) and closes 30 days on:
+    # 12:00 UTC is 00:00 the same day Anywhere on Earth.
+    assert "2026-05-01 12:00 UTC" in row and "2026-05-31 12:00 UTC" in row
+    assert "2026-05-31 00:00 AoE" in row
+    phases = requests.get(f"{served.url}/api/v1/phases", timeout=10).json()
+    assert phases[0]["commitment"][:16] in row
+    # Its seeds stay secret while it is open.
+    sealed = requests.get(f"{served.url}/api/v1/phases/open/seeds", timeout=10)
+    assert sealed.status_code == 403 and "revealed after" in sealed.json()["detail"]
+
+
+def test_the_board_shows_what_the_phase_allows(served: Served) -> None:
+    auth = {"Authorization": f"Bearer {served.tokens['team-a']}"}
+    board = requests.get(f"{served.url}/api/v1/board", headers=auth, timeout=30).json()
+    assert board["board"] == "team" and board["teams"] == 2  # two teams scored
+    assert [r["team"] for r in board["rows"]] == ["team-a"]  # its own row only

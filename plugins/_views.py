@@ -29,6 +29,9 @@ class RecordedEpisode:
     organizer: bool = False
     """The organizer's view, which may show the hidden scenario; False: a team's view,
     which must show nothing of it."""
+    public_seed: bool = False
+    """The episode's seed is public (a local test, a public split): its scenario is then
+    no secret, and a team's view may show its layout."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -107,7 +107,7 @@ class EpisodeView:
     problems: list[str] = field(default_factory=list)
 
 
-def read_episode(folder: Path, *, organizer: bool) -> EpisodeView:
+def read_episode(folder: Path, *, organizer: bool, public_seed: bool = False) -> EpisodeView:
     """The view of the episode in ``folder`` (``<runs>/<episode>``)."""
     host = folder / "host"
     result = EpisodeResult.model_validate_json((host / "result.json").read_text())
@@ -122,7 +122,8 @@ def read_episode(folder: Path, *, organizer: bool) -> EpisodeView:
     _snapshots(host, result, view)
     _log_tail(host, result, view)
     if log.scenario is not None:
-        episode = RecordedEpisode(folder=folder, scenario=log.scenario, organizer=organizer)
+        episode = RecordedEpisode(folder=folder, scenario=log.scenario, organizer=organizer,
+                                  public_seed=public_seed)
         plugin = _plugin(log.scenario.track, view)
         if plugin is not None:
             _map(plugin, episode, view)

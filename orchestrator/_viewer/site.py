@@ -54,9 +54,11 @@ def episode_page(view: EpisodeView, *, back: str | None, back_text: str) -> str:
         v=view, r=view.result, data=data, back=back, back_text=back_text)
 
 
-def write_episode_site(folder: Path, out: Path, *, organizer: bool = False) -> list[Path]:
-    """One episode's page as ``out/index.html``; returns the pages written."""
-    view = read_episode(folder, organizer=organizer)
+def write_episode_site(folder: Path, out: Path, *, organizer: bool = False,
+                       public_seed: bool = True) -> list[Path]:
+    """One episode's page as ``out/index.html`` (by default an episode of a public seed:
+    ``eagc run-episode``'s, a public split's); returns the pages written."""
+    view = read_episode(folder, organizer=organizer, public_seed=public_seed)
     return [_write(out / "index.html", episode_page(view, back=None, back_text=""))]
 
 
@@ -124,7 +126,9 @@ def write_campaign_site(spec: CampaignSpec, store: Any, out: Path, *, team: str 
             folder = Path(e.result.episode_dir) if e.result.episode_dir else None
             if folder is not None and (folder / "host" / "result.json").is_file():
                 say(f"{row.team}: {e.key.split}/{e.key.index}")
-                view = read_episode(folder, organizer=organizer)
+                # A local campaign's seeds derive from its name: public. Others: hidden.
+                view = read_episode(folder, organizer=organizer,
+                                    public_seed=spec.phase == "local")
                 up = "../index.html" if team is not None else f"../teams/{slug(row.team)}.html"
                 written.append(_write(out / "episodes" / f"{view.id}.html", episode_page(
                     view, back=up, back_text=f"{row.team} in {spec.name}")))

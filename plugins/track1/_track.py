@@ -126,8 +126,12 @@ class Track1(TrackPlugin[Track1Scenario, Track1Outcome]):
         exceptions detected before anything could show them (``audit``)."""
         return Track1Checks()
 
-    def episode_map(self, episode: RecordedEpisode) -> EpisodeMap:
-        """The house from above (a team's view: its plan, without the items)."""
+    def episode_map(self, episode: RecordedEpisode) -> EpisodeMap | None:
+        """The house from above (a team's view of a public seed: its plan, without the
+        items; of a hidden seed nothing: the plan is what the team's world model is graded
+        on, and the viewer draws the path alone)."""
+        if not episode.organizer and not episode.public_seed:
+            return None
         return _view.house_map(episode)
 
     def truth(self, episode: RecordedEpisode) -> TruthReport | None:

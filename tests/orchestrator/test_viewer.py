@@ -432,6 +432,17 @@ def test_a_track1_episode_page(track1_episode: Path, browser: Browser, shots: Pa
     (page,) = write_episode_site(track1_episode, org, organizer=True)
     assert "hidden-scenario" in page.read_text() and "model-vs-truth" in page.read_text()
     assert not browser.open(page.as_uri())
+    # A hidden seed (a campaign's with a secret): the team's page draws the path alone,
+    # never the house's plan (what its world model is graded on); the organizer's does.
+    hidden = tmp_path / "hidden"
+    (page,) = write_episode_site(track1_episode, hidden, public_seed=False)
+    assert not browser.open(page.as_uri())
+    assert browser.evaluate("document.querySelectorAll('#map-svg image').length") == 0
+    assert int(browser.evaluate("document.getElementById('path').dataset.points")) > 1
+    (page,) = write_episode_site(track1_episode, tmp_path / "h-org", organizer=True,
+                                 public_seed=False)
+    assert not browser.open(page.as_uri())
+    assert browser.evaluate("document.querySelectorAll('#map-svg image').length") == 1
 
 
 def test_the_wheel_carries_the_templates(tmp_path: Path) -> None:

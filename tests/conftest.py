@@ -164,3 +164,26 @@ def runs_dir() -> Path:
     import tempfile
 
     return Path(tempfile.mkdtemp(prefix="eagc-", dir="/tmp"))
+
+
+# ---------------------------------------------------------------------------- chromium
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Any]:
+    """One headless Chromium for a module's pages (``tests/orchestrator/_chromium.py``);
+    never skipped in CI."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent / "orchestrator"))
+    from _chromium import Browser, chromium
+
+    binary = chromium()
+    if binary is None:
+        msg = "chromium is not installed (apt-get install chromium)"
+        if os.environ.get("CI"):
+            pytest.fail(msg)
+        pytest.skip(msg)
+    b = Browser(binary)
+    try:
+        yield b
+    finally:
+        b.close()

@@ -43,9 +43,12 @@ def _pids(fragment: str) -> list[int]:
     return found
 
 
-def _challenge(tmp_path: Path, **changes: object) -> Path:
+def _challenge(tmp_path: Path, phase: dict[str, object] | None = None,
+               **changes: object) -> Path:
+    """The example challenge with ``changes`` (and ``phase``'s in its one phase)."""
     doc = yaml.safe_load(EXAMPLE.read_text())
     doc.update(changes)
+    doc["phases"][0].update(phase or {})
     path = tmp_path / "challenge.yaml"
     path.write_text(yaml.safe_dump(doc))
     return path
@@ -125,12 +128,7 @@ def test_a_run_its_runner_dies_in_is_refunded_without_a_human(
         images: dict[str, str], tmp_path: Path) -> None:
     """kill -9 of the runner alone, in a phase that retries nothing: the lease runs out,
     the submission fails as the platform's fault and the team gets its quota back."""
-    doc = yaml.safe_load(EXAMPLE.read_text())
-    doc["lease_s"] = 10
-    doc["phases"][0]["retries"] = 0
-    challenge = tmp_path / "challenge.yaml"
-    challenge.write_text(yaml.safe_dump(doc))
-    ch = Served(runner=True, challenge=challenge)
+    ch = Served(runner=True, challenge=_challenge(tmp_path, {"retries": 0}, lease_s=10))
     try:
         ch.login("team-a")
         sub = ch.eagc("submit", SANITY, "--json", team="team-a")
@@ -161,11 +159,8 @@ def test_kill_9_while_submissions_are_accepted_loses_none_it_answered(
     its history from the start; none is there twice."""
     import threading
 
-    doc = yaml.safe_load(EXAMPLE.read_text())
-    doc["phases"][0]["quota"] = {"per_day": 5000, "concurrent": 5000}  # a deadline's burst
-    challenge = tmp_path / "challenge.yaml"
-    challenge.write_text(yaml.safe_dump(doc))
-    ch = Served(runner=False, challenge=challenge)
+    burst = {"quota": {"per_day": 5000, "concurrent": 5000}}  # a deadline's
+    ch = Served(runner=False, challenge=_challenge(tmp_path, burst))
     data = ch.data
     try:
         ch.login("team-a")

@@ -302,8 +302,8 @@ def _phase_channel(tmp_path: Path, **phase: object) -> Channel:
 
 def _scored(ch: Channel, sid: str, final: float) -> None:
     with ch.db.tx() as db:  # as a run's report leaves it (the board's rows are its store's)
-        db.execute("UPDATE submissions SET state='scored', result=? WHERE id=?",
-                   (f'{{"final": {final}}}', sid))
+        db.execute("UPDATE submissions SET state='scored', result=?, updated_at=? "
+                   "WHERE id=?", (f'{{"final": {final}}}', ch.clock.now(), sid))
     _advance(ch, 1)
 
 

@@ -8,7 +8,6 @@ console error, no seed; another team's cookie shows none of it."""
 
 from __future__ import annotations
 
-import os
 import re
 import secrets
 import shutil
@@ -26,7 +25,7 @@ import requests
 import uvicorn
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "orchestrator"))
-from _chromium import Browser, chromium  # noqa: E402
+from _chromium import Browser  # noqa: E402
 
 from orchestrator._campaign.seeds import load_secret, seed_list  # noqa: E402
 from orchestrator._channel.api import create_app  # noqa: E402
@@ -106,21 +105,6 @@ def _score(ch: Channel, sid: str, base: float, folder: str | None) -> None:
     ch.report(sid, Outcome(runner="r", kind="run", ok=True, wall_s=600.0,
                            results=tuple(rows)))
     ch.clock.origin += 60
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    binary = chromium()
-    if binary is None:
-        msg = "chromium is not installed (apt-get install chromium)"
-        if os.environ.get("CI"):
-            pytest.fail(msg)
-        pytest.skip(msg)
-    b = Browser(binary)
-    try:
-        yield b
-    finally:
-        b.close()
 
 
 @pytest.fixture(scope="module")

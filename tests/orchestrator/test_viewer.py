@@ -12,17 +12,15 @@ type is kept under pytest's temporary folder (the paths are printed).
 from __future__ import annotations
 
 import json
-import os
 import re
 import tempfile
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pytest
 import yaml
-from _chromium import Browser, chromium
+from _chromium import Browser
 from typer.testing import CliRunner
 
 from orchestrator._campaign.seeds import commitment, load_secret, seed_list
@@ -53,21 +51,6 @@ class Campaign:
     spec: CampaignSpec
     path: Path
     seeds: list[int]
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    binary = chromium()
-    if binary is None:
-        msg = "chromium is not installed (apt-get install chromium)"
-        if os.environ.get("CI"):
-            pytest.fail(msg)
-        pytest.skip(msg)
-    b = Browser(binary)
-    try:
-        yield b
-    finally:
-        b.close()
 
 
 @pytest.fixture(scope="module")

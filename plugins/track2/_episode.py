@@ -47,15 +47,22 @@ OBS_TEXT = {
              "angle in rad or slide position in m on the dev split; 0 on the official "
              "splits: not observed), age (s: how old the state shown is). Official splits: "
              "measured with noise, at a lower rate, with latency, kept stale while the "
-             "gripper hides the part, yaw only modulo the part's symmetry",
+             "gripper hides the part from both cameras, yaw only modulo the part's symmetry",
     "force": "exact: normal contact force on the left finger, right finger and palm (N), then "
              "the net contact force on the gripper, world frame x, y, z (N)",
     "goal": "dev split only: [stated (1 or 0), g1, g2, g3], the task's goal parameters "
             "(family README); zeros when the task states none",
-    "rgb": "overview camera, H x W x 3, 8-bit RGB; refreshed when parts are measured",
+    "rgb": "overview camera (the robot's side, the near half of the bench; pose and field "
+           "of view in the track README), H x W x 3, 8-bit RGB; refreshed when parts are "
+           "measured",
     "depth": "overview camera, H x W, depth along the optical axis (m)",
     "segmentation": "overview camera, H x W: 0 nothing, k the part of parts row k - 1, "
                     "-1 the gripper",
+    "rgb_front": "front camera (across the table, facing the robot: the far half of the "
+                 "bench), H x W x 3, 8-bit RGB; refreshed with rgb",
+    "depth_front": "front camera, H x W, depth along the optical axis (m)",
+    "segmentation_front": "front camera, H x W: 0 nothing, k the part of parts row k - 1, "
+                          "-1 the gripper",
 }
 
 

@@ -1,6 +1,7 @@
 """Assembly: stack two or three square parts, in order, into a tray and align them.
 
-Parts: ``tray`` (fixed low walls), ``part1``, ``part2``, ``part3`` (free boxes of decreasing
+Parts: ``tray`` (fixed low walls on the table, drawn with a steel floor: a visual plate 0.5 mm
+thick), ``part1``, ``part2``, ``part3`` (free boxes of decreasing
 size; ``part3`` is a zero padding row when ``n_parts == 2``). ``part1`` goes into the tray,
 each next part onto the previous one.
 
@@ -80,6 +81,11 @@ class AssemblyTask(FamilyTask):
         inner = self.half[0] + self.clear / 2
         walls = dress(box_walls(inner, inner, WALL_T, WALL_H, chamfer=TRAY_CHAMFER), "steel",
                       METAL)
+        # the tray's floor as the camera sees it (visual only, 0.5 mm on the table, under
+        # the walls and the parts placed on the table inside them)
+        walls += (f'<geom class="visual" type="box" size="{inner + WALL_T:.5f} '
+                  f'{inner + WALL_T:.5f} 0.00025" pos="0 0 0.00025" material="steel" '
+                  f'rgba="0.62 0.64 0.68 1"/>')
         colours = ("0.2 0.6 0.3 1", "0.9 0.75 0.2 1", "0.3 0.4 0.85 1")
         bodies = [
             f'<body name="tray" pos="{self.p.f("tray_x"):.5f} {self.p.f("tray_y"):.5f} 0" '

@@ -1,12 +1,15 @@
-"""The bench every family shares: table, gripper, camera, and a view of the simulation.
+"""The bench every family shares: table, gripper, cameras, and a view of the simulation.
 
 The gripper is joint-driven: a hand on three world-aligned slides (x, y, z) and a yaw hinge,
 position-servoed with capped forces, and two fingers on slides along the hand's y axis. Its
 origin is the tool centre point (TCP), level with the fingertips. The table top is at z = 0,
 x points away from the robot's side of the table; the hand reaches x, y in [-0.3, 0.3] and
 z in [0.003, 0.3] m, yaw in [-3.2, 3.2] rad, and starts at ``HOME``. Fingers squeeze with at
-most ``GRIP_FORCE`` each. The ``overview`` camera looks at the table from the robot's side.
-Physics: 2 ms implicit-fast steps, elliptic friction cones, auto-reset disabled.
+most ``GRIP_FORCE`` each. Two fixed cameras (``CAMERAS``) look down at the table from opposite
+sides, 60 degrees below the horizon, low enough to see under the gripper at ``HOME``: the
+``overview`` camera from the robot's side frames the near half of the bench, the ``front``
+camera from across the table the far half. Physics: 2 ms implicit-fast steps, elliptic
+friction cones, auto-reset disabled.
 """
 
 from __future__ import annotations
@@ -48,6 +51,23 @@ HIDDEN_GROUP = 3
 """Geom group of collision geoms a visual geom shows instead: in contact, not rendered."""
 RAY_GROUPS = np.array([1, 1, 0, 1, 1, 1], dtype=np.uint8)
 """``mj_ray``'s geom group mask: every group but ``VISUAL_GROUP``."""
+CAMERAS = ("overview", "front")
+"""The bench's cameras, both ``CAMERA_FOVY`` degrees high, their image 4:3 (W:H), 60 degrees below
+the horizon. Each frames its band of the table, every point of it from the table top to 8 cm
+above, at the official image size: ``overview`` at (-0.38, 0, 0.46) m looking along +x,
+x in [-0.24, 0.06] m (the pegs, the assembly's loose parts, the tools); ``front`` at
+(0.555, 0, 0.51) m looking along -x, x in [0.06, 0.46] m (holes, trays, handles, housings,
+wells, the puck); both y in [-0.19, 0.19] m. A ray from either to a part under the gripper at
+``HOME`` passes below the fingertips."""
+CAMERA_FOVY = 40.0
+
+
+def image_key(channel: str, camera: str) -> str:
+    """The observation key of a camera's image ``channel`` (``rgb``, ``depth``,
+    ``segmentation``): the channel itself for ``overview``, ``rgb_front`` and so on for the
+    others."""
+    return channel if camera == CAMERAS[0] else f"{channel}_{camera}"
+
 METAL = "0.85 0.86 0.88 1"
 DARK = "0.25 0.25 0.27 1"
 
@@ -92,7 +112,7 @@ class Scene:
 
 def build_mjcf(scene: Scene, *, surface_friction: float, grip_slip: bool = False,
                image_size: tuple[int, int] = (480, 640)) -> str:
-    """The whole MJCF document: options, table, gripper, camera and the family's bodies.
+    """The whole MJCF document: options, table, gripper, cameras and the family's bodies.
 
     With ``grip_slip`` the fingers' contacts take the touched geom's friction (the fingers
     have the lower ``priority``): a grasp on a slippery part can slip.
@@ -127,7 +147,10 @@ def build_mjcf(scene: Scene, *, surface_friction: float, grip_slip: bool = False
   </asset>
   <worldbody>
     <light pos="0 0 1.2" dir="0 0 -1" directional="true" castshadow="false"/>
-    <camera name="overview" pos="-0.3 0 0.55" xyaxes="0 -1 0 0.8 0 0.6" fovy="58"/>
+    <camera name="overview" pos="-0.38 0 0.46" xyaxes="0 -1 0 0.866025 0 0.5"
+      fovy="{CAMERA_FOVY:g}"/>
+    <camera name="front" pos="0.555 0 0.51" xyaxes="0 1 0 -0.866025 0 0.5"
+      fovy="{CAMERA_FOVY:g}"/>
     <geom name="table" class="fixture" type="box" pos="0.05 0 -0.02" size="0.5 0.45 0.02"
       material="table" rgba="1 1 1 1"/>
     <body name="hand" gravcomp="1">

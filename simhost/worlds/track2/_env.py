@@ -23,7 +23,9 @@ decides what the observation holds (see ``simhost.worlds.track2._config``):
 - ``goal`` (4,): ``[stated, g1, g2, g3]`` (``dev`` only): the task's goal parameters.
 - ``rgb`` (H, W, 3) uint8, ``depth`` (H, W) float32 metres and, if configured,
   ``segmentation`` (H, W) int32 (0 nothing, k the part of ``parts`` row k - 1, -1 the
-  gripper) from the ``overview`` camera (no shadows), rendered when parts are measured.
+  gripper) from the ``overview`` camera (the robot's side, the near half of the bench), and
+  ``rgb_front``, ``depth_front`` (``segmentation_front``) from the ``front`` camera (across
+  the table, the far half; ``CAMERAS``), no shadows, rendered when parts are measured.
 
 ``reset(seed=...)`` seeds everything random in an episode: the per-reset jitter of part and
 fixture poses (``attempt_jitter_*``) and the observation noise. The same instance and seed
@@ -53,6 +55,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ._bench import (
+    CAMERAS,
     CONTROL_HZ,
     DPOS_MAX,
     DYAW_MAX,
@@ -65,8 +68,9 @@ from ._bench import (
     WORKSPACE_HI,
     WORKSPACE_LO,
     build_mjcf,
+    image_key,
 )
-from ._camera import OverviewCamera
+from ._camera import BenchCameras
 from ._config import BenchConfig, split_config
 from ._errors import InstanceParamsError, StateError
 from ._families import make_task
@@ -150,7 +154,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.config = config
         self.render_mode = render_mode
         self._max_steps_arg = max_steps
-        self._camera: OverviewCamera | None = None
+        self._camera: BenchCameras | None = None
         self.episode = 0
         self._load(params)
 
@@ -210,10 +214,11 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             obs["goal"] = spaces.Box(-10.0, 10.0, (GOAL_SIZE,), np.float32)
         if cfg.rgbd:
             h, w = cfg.image_size
-            obs["rgb"] = spaces.Box(0, 255, (h, w, 3), np.uint8)
-            obs["depth"] = spaces.Box(0.0, 10.0, (h, w), np.float32)
-            if cfg.segmentation:
-                obs["segmentation"] = spaces.Box(-1, n, (h, w), np.int32)
+            for cam in CAMERAS:
+                obs[image_key("rgb", cam)] = spaces.Box(0, 255, (h, w, 3), np.uint8)
+                obs[image_key("depth", cam)] = spaces.Box(0.0, 10.0, (h, w), np.float32)
+                if cfg.segmentation:
+                    obs[image_key("segmentation", cam)] = spaces.Box(-1, n, (h, w), np.int32)
         self.observation_space = spaces.Dict(obs)
         self.action_space = spaces.Box(-1.0, 1.0, (5,), np.float32)
         self._target = HOME.copy()
@@ -499,22 +504,27 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     def _render_obs(self) -> dict[str, np.ndarray]:
         seg_on = self.config.observation.segmentation
-        rgb, depth, seg = self._render(depth=True, segmentation=seg_on)
-        out = {"rgb": rgb, "depth": np.clip(depth, 0.0, 10.0).astype(np.float32)}
-        if self.config.observation.segmentation:
-            out["segmentation"] = seg
+        out = {}
+        for cam in CAMERAS:
+            rgb, depth, seg = self._render(depth=True, segmentation=seg_on, camera=cam)
+            out[image_key("rgb", cam)] = rgb
+            out[image_key("depth", cam)] = np.clip(depth, 0.0, 10.0).astype(np.float32)
+            if seg_on:
+                out[image_key("segmentation", cam)] = seg
         return out
 
-    def _render(self, depth: bool = False, segmentation: bool = False
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _render(self, depth: bool = False, segmentation: bool = False,
+                camera: str = CAMERAS[0]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One camera's RGB, depth (with ``depth``) and part segmentation (with
+        ``segmentation``; 0 nothing, k row k - 1, -1 the gripper)."""
         if self._camera is None:
             h, w = self.image_size
-            self._camera = OverviewCamera(self.model, h, w)
+            self._camera = BenchCameras(self.model, h, w, CAMERAS)
         cam = self._camera
-        rgb, dep = cam.rgbd(self.data, depth=depth)
+        rgb, dep = cam.rgbd(self.data, depth=depth, camera=camera)
         seg = np.zeros(0, dtype=np.int32)
         if segmentation:
-            ids = cam.segmentation(self.data)
+            ids = cam.segmentation(self.data, camera=camera)
             lut = np.zeros(self.model.ngeom + 1, dtype=np.int32)
             for g, row in self._seg_rows.items():
                 lut[g] = row

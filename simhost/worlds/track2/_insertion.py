@@ -1,6 +1,7 @@
 """Insertion: pick up a standing peg and insert it into a hole of matching cross-section.
 
-Parts: ``peg`` (free), ``hole`` (fixed walls on the table; the table is the hole's floor).
+Parts: ``peg`` (free), ``hole`` (fixed walls on the table; the table is the hole's floor, which
+the camera sees as the dark bottom of a blind hole: a visual disc or plate 0.5 mm thick).
 Square and rect pegs are boxes in a box hole (yaw symmetry pi/2 and pi); a round peg is a
 cylinder in an octagonal hole of inradius ``peg_half + clearance / 2``; a hex peg (wide
 ranges only) is a hexagonal prism ``2 peg_half`` across flats in a hexagonal hole (pi/3).
@@ -87,6 +88,13 @@ class InsertionTask(FamilyTask):
             peg = f'<geom type="box" size="{self.a:.5f} {self.b:.5f} {self.h / 2:.5f}"'
             walls = box_walls(self.a + self.c / 2, self.b + self.c / 2, WALL, self.depth,
                               chamfer=CHAMFER)
+        # the bore's bottom as the camera sees a blind hole: dark (visual only, under a peg
+        # that reaches the table)
+        ra, rb = self.a + self.c / 2, self.b + self.c / 2
+        floor = (f'type="box" size="{ra:.5f} {rb:.5f} 0.00025"' if self.shape in ("square", "rect")
+                 else f'type="cylinder" size="{ra:.5f} 0.00025"')
+        floor = (f'<geom class="visual" {floor} pos="0 0 0.00025" material="wood_dark" '
+                 f'rgba="0.2 0.17 0.15 1"/>')
         peg += (f' density="{p.f("density"):.2f}" friction="{fr:.4f} 0.005 0.0001" '
                 f'rgba="0.85 0.45 0.2 1"/>')
         # what the camera sees: the asset library's peg (brass), scaled to this peg
@@ -105,7 +113,7 @@ class InsertionTask(FamilyTask):
     </body>
     <body name="hole" pos="{p.f('hole_x'):.5f} {p.f('hole_y'):.5f} 0"
       quat="{quat_z(p.f('hole_yaw'))}">
-      {dress(walls, "wood_dark")}
+      {dress(walls, "wood_dark")}{floor}
     </body>"""
         )
 

@@ -10,11 +10,14 @@
   ``symmetric_yaw``,
   reported modulo the part's symmetry period (the tilt is kept); the ``joint`` column is
   the true joint value only with ``joint_readings``;
-- a row whose part the gripper hides from the camera at that time (``occlusion``: every
-  line of sight from the ``overview`` camera to the part's sample points — the centre, top
-  and bottom of each of its collision geoms, or the site a row shows — meets a gripper geom
-  first; the rays see every geom group but ``VISUAL_GROUP``, the visual-only geoms)
-  keeps its previous measurement;
+- a row whose part the gripper hides from the cameras at that time (``occlusion``: from
+  each of the bench's cameras (``CAMERAS``: ``overview`` and ``front``), every line of sight
+  to the part's sample points — the centre, top and bottom of each of its collision geoms,
+  or the site a row shows — meets a gripper geom first; the rays see every geom group but
+  ``VISUAL_GROUP``, the visual-only geoms) keeps its previous measurement. A part seen past
+  the gripper by either camera is measured. What leaves a camera's field of view is not
+  hidden by that: the channel models a pose estimator over both cameras, whose fields cover
+  the table where the parts rest, not the loss of a part carried out of them;
 - the ``age`` column says how old the state shown is, in seconds (latency included).
 
 At reset every part is measured from the reset state, occluded or not. The noise is drawn
@@ -30,7 +33,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._bench import CONTROL_HZ, PART_FIELDS, RAY_GROUPS, VISUAL_GROUP, wrap, yaw_of
+from ._bench import CAMERAS, CONTROL_HZ, PART_FIELDS, RAY_GROUPS, VISUAL_GROUP, wrap, yaw_of
 from ._config import ObservationConfig
 
 if TYPE_CHECKING:
@@ -80,7 +83,7 @@ class PartsChannel:
         sim = task.s
         m = sim.model
         self._hand = {int(m.body(b).id) for b in _HAND_BODIES}
-        self._cam = int(m.camera("overview").id)
+        self._cams = [int(m.camera(name).id) for name in CAMERAS]
         self._geomid = np.zeros(1, dtype=np.int32)
         self._periods = np.array(task.symmetry(), dtype=float)
         self._samples: list[tuple[str, list[int]]] = []
@@ -168,16 +171,25 @@ class PartsChannel:
         self._age()
 
     def _occluded(self, truth: np.ndarray) -> np.ndarray:
-        """Rows whose every sample point the gripper hides from the overview camera."""
+        """Rows whose every sample point the gripper hides from every camera."""
+        out = np.array([truth[i, 0] >= 0.5 and bool(self._samples[i][1])
+                        for i in range(self.n)])
+        for cam in self._cams:
+            if not out.any():
+                break
+            out = self._occluded_from(truth, cam, out)
+        return out
+
+    def _occluded_from(self, truth: np.ndarray, cam_id: int, rows: np.ndarray) -> np.ndarray:
+        """Which of ``rows`` have every sample point hidden by the gripper from camera
+        ``cam_id``."""
         import mujoco
 
         m, d = self.task.s.model, self.task.s.data
-        cam = d.cam_xpos[self._cam]
+        cam = d.cam_xpos[cam_id]
         out = np.zeros(self.n, dtype=bool)
-        for i in range(self.n):
+        for i in np.nonzero(rows)[0]:
             kind, ids = self._samples[i]
-            if truth[i, 0] < 0.5 or not ids:
-                continue
             if kind == "site":
                 points = d.site_xpos[ids]
             else:

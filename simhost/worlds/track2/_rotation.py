@@ -1,6 +1,7 @@
 """Rotation: grasp a knob, valve handle or nut on a vertical hinge and turn it by a goal angle.
 
-Parts: ``knob`` (hinged about z), ``base`` (fixed post). Shapes: ``knob`` a short thick bar,
+Parts: ``knob`` (hinged about z), ``base`` (fixed post, drawn on a round steel mounting plate:
+visual only, 2 mm thick). Shapes: ``knob`` a short thick bar,
 ``valve`` a long thin bar over a hub, ``nut`` a hexagonal prism on a bolt. A bar is grasped
 across its long sides (grasp symmetry pi), the nut across flats (pi/3); a pointer painted on
 top shows the handle's angle over a full turn, so its reported yaw has no symmetry. The hinge has
@@ -44,6 +45,7 @@ if TYPE_CHECKING:
 
 STOP = 0.05  # rad: the stop behind the start
 FREE = 6.3  # rad: how far the handle may turn in its direction
+PLATE_R = 0.045  # m: radius of the base's mounting plate (visual only)
 
 
 class RotationTask(FamilyTask):
@@ -116,6 +118,11 @@ class RotationTask(FamilyTask):
             post = dress(
                 f'<geom class="fixture" type="cylinder" pos="0 0 {bottom / 2:.5f}" '
                 f'size="0.009 {bottom / 2:.5f}"/>', "steel", METAL)
+        # The mechanism's mounting plate as the camera sees it (visual only, 2 mm on the
+        # table, below anything the fingers reach): the base reads as a base from above,
+        # where the handle hides its post.
+        post += (f'<geom class="visual" type="cylinder" size="{PLATE_R} 0.001" pos="0 0 0.001" '
+                 f'material="steel" rgba="{METAL}"/>')
         # A pointer painted on top (no collision): the handle's pose shows its angle over a
         # full turn, although its shape repeats every pi (bars) or pi/3 (the nut).
         handle += (

@@ -8,7 +8,8 @@ the other slot a too-short distractor when ``distractor`` is set.
   fingers. Success: the button pushed down by ``PRESS_DEPTH``. The short stick cannot reach.
 - ``pull``: a hoe (tall handle, shaft of ``tool_length + 0.1``, blade) lies on the table; a
   puck lies beyond the hand's reach (x > 0.3). Success: the puck's centre within
-  ``tolerances.pull_m`` of the goal line (a visible marker). The short hoe cannot reach
+  ``tolerances.pull_m`` of the goal line (a strip of green tape 1 cm wide, visual only, its
+  centre the line). The short hoe cannot reach
   behind the puck.
 
 On the wide ranges the mechanism itself may differ from the demonstration's
@@ -31,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._bench import WIDTH_MAX, Scene, dress, quat_z, wrap
+from ._bench import WIDTH_MAX, Scene, dress, hide, quat_z, wrap
 from ._family import (
     Evaluation,
     FamilyTask,
@@ -64,6 +65,7 @@ RACK_H = 0.045
 PRESS_DEPTH = 0.006
 BUTTON_TOP = 0.016
 PALM_GAP = 0.056  # TCP below a handle's top when the palm rests on it
+LINE_HALF = 0.005  # m: half-width of the goal line's green tape (visual; its centre is the goal)
 
 
 class ToolUseTask(FamilyTask):
@@ -166,8 +168,8 @@ class ToolUseTask(FamilyTask):
         rgba="0.9 0.5 0.1 1"/>
     </body>
     <body name="fixture" pos="{self.goal_x0:.5f} 0 0.0005">
-      <geom type="box" size="0.003 0.2 0.0005" contype="0" conaffinity="0"
-        rgba="0.1 0.8 0.1 1"/>
+      {hide('<geom type="box" size="0.003 0.2 0.0005" contype="0" conaffinity="0"/>')}
+      <geom class="visual" type="box" size="{LINE_HALF} 0.2 0.0005" rgba="0.1 0.8 0.1 1"/>
     </body>"""
             contact = ""
         return Scene(bodies=tools + target, contact=contact)

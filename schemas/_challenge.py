@@ -141,6 +141,9 @@ class ChallengeSpec(_Model):
     storage_mb_per_team: int = Field(default=20_000, ge=1, description="The registry's "
                                      "storage a team's images may take; pushes beyond it "
                                      "are refused.")
+    appeal_s: float = Field(default=48 * 3600.0, ge=0, description="How long a team may "
+                            "appeal an organizer's ruling on an audit finding of its own; "
+                            "the phase's results wait for it.")
     lease_s: float = Field(default=60.0, ge=5.0, description="A running submission's lease: "
                            "a runner that stops renewing it loses the submission to the "
                            "queue after this long.")

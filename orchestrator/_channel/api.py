@@ -15,6 +15,8 @@ as one that does not exist.
     GET  /api/v1/phases                     the calendar (public): windows, rules, commitments
     GET  /api/v1/phases/{p}/seeds           a closed phase's seeds (public), as committed
     GET  /calendar                          the calendar as a page
+    GET  /api/v1/findings?phase=P           the team's audit findings and their rulings
+    POST /api/v1/findings/{id}/appeal       appeal a ruling within the appeal window
     GET  /api/v1/quota                      what the team has left today, when it resets
     GET  /api/v1/board                      the open phase's board (teams' latest scored)
     POST /api/v1/runner/claim               runner: take a pre-flight or a run
@@ -231,6 +233,22 @@ def create_app(channel: Channel) -> FastAPI:
             for r in b.rows if p.board == "public" or r.team == who]
         return {"phase": p.name, "board": p.board, "counts": p.counts,
                 "teams": 0 if b is None else len(b.rows), "rows": rows}
+
+    @app.get("/api/v1/findings")
+    def team_findings(who: Team, phase: str) -> list[dict[str, Any]]:
+        """The audit's findings of the team in ``phase``, with their rulings."""
+        from orchestrator._channel.release import findings
+
+        keep = ("id", "detail", "ruling", "reason", "ruled_at", "appeal")
+        return [{k: f[k] for k in keep} for f in findings(channel, channel.phase(phase).name,
+                                                         who)]
+
+    @app.post("/api/v1/findings/{finding}/appeal")
+    def appeal(finding: int, body: dict[str, str], who: Team) -> dict[str, str]:
+        from orchestrator._channel.release import appeal as do_appeal
+
+        do_appeal(channel, finding, who, str(body.get("text", "")))
+        return {"finding": str(finding), "state": "appealed: waits for a new ruling"}
 
     @app.post("/api/v1/submissions/{sid}/select")
     def select(sid: str, who: Team) -> SubmissionView:

@@ -332,6 +332,54 @@ def finalists_cmd(phase: Annotated[str, typer.Argument(help="A phase that admits
     out.print(f"phase {phase} admits {', '.join(sorted(teams))}", highlight=False)
 
 
+@challenge_app.command("audit")
+def audit_cmd(phase: Annotated[str, typer.Argument(help="The phase.")],
+              top: Annotated[int, typer.Option(help="Audit every team the board allows "
+                                               "within this rank.", min=1)],
+              why: WhyOpt, data: DataOpt = DEFAULT_DATA,
+              rerun: Annotated[int, typer.Option(help="Episodes of each team run again.",
+                                                 min=0)] = 0) -> None:
+    """Audit the phase's top teams; each finding then waits for a ruling."""
+    from orchestrator._channel.release import audit_phase
+    from orchestrator._channel.serve import open_channel
+
+    ch = open_channel(data)
+    found = audit_phase(ch, ch.phase(phase), top, rerun=rerun, who=_who(),
+                        say=lambda s: err.print(s, highlight=False))
+    for f in found:
+        out.print(f"{f['team']}: {f['detail']}", highlight=False, soft_wrap=True)
+    out.print(f"{len(found)} finding{'s' if len(found) != 1 else ''} to rule on "
+              "(eagc challenge rule ID accept|rerun|disqualify --why …)", highlight=False)
+
+
+@challenge_app.command("rule")
+def rule_cmd(finding: Annotated[int, typer.Argument(help="The finding's number.")],
+             ruling: Annotated[str, typer.Argument(help="accept, rerun or disqualify")],
+             why: WhyOpt, data: DataOpt = DEFAULT_DATA) -> None:
+    """Rule on an audit finding (the team may appeal within the appeal window)."""
+    from orchestrator._channel.release import rule
+    from orchestrator._channel.serve import open_channel
+
+    rule(open_channel(data), finding, ruling, who=_who(), why=why)
+    out.print(f"finding {finding}: {ruling}", highlight=False)
+
+
+@challenge_app.command("release")
+def release_cmd(phase: Annotated[str, typer.Argument(help="The phase.")],
+                to: Annotated[Path, typer.Option("--out", help="Where the pages go.")],
+                why: WhyOpt, data: DataOpt = DEFAULT_DATA) -> None:
+    """Release a phase's results: each team's report, then the public board; refused
+    while a finding waits for a ruling or an appeal window is open."""
+    from orchestrator._channel.release import release
+    from orchestrator._channel.serve import open_channel
+
+    ch = open_channel(data)
+    for path in release(ch, ch.phase(phase), to, who=_who(), why=why):
+        out.print(f"  {path}", highlight=False)
+    out.print(f"released phase {phase}: the public board is {to / 'board.md'}",
+              highlight=False)
+
+
 @challenge_app.command("cancel")
 def cancel_cmd(sid: Annotated[str, typer.Argument(help="The submission.")], why: WhyOpt,
                data: DataOpt = DEFAULT_DATA) -> None:

@@ -15,11 +15,20 @@ hidden seed), so two teams are compared **paired**, on the episodes both have.
   equals ``sqrt(n / (n - k)) * t(n - k)``, with ``n`` episodes in ``k`` cells), which keeps
   coverage near 95 % on 20 + 20 bimodal episodes where the plain percentile undercovers.
 - **Who beats whom.** For each pair of teams the paired difference of finals is resampled
-  on the episodes both have; its p-value is two-sided, from the resampled spread (expanded
-  as the intervals are). The pairs are tested together with Holm's method, so that among
-  many teams of equal skill no pair is separated in about 95 % of campaigns (a simulation
-  of 20 equal teams on 20 + 20 bimodal episodes: 94 %). With two teams this is the plain
-  paired test at 95 %: the difference is about two standard errors from zero.
+  on the episodes both have (the same resamples for every pair, so the pairs' joint
+  distribution is kept). All pairs are tested together by a max-|t| step-down (Romano and
+  Wolf 2005), as in Mogstad, Romano, Shaikh and Wilhelmy's confidence sets for ranks
+  (2024): each pair's difference is studentized by its resampled spread; the critical
+  value is the 95 % quantile, over the resamples, of the largest centred studentized
+  difference among the pairs not yet shown apart, expanded for small samples at the tail
+  it stands for as the intervals are (``expanded_critical``); the pairs beyond it are
+  shown apart and leave the set, and the quantile is recomputed over the rest until no
+  more pair is shown apart. Measured (``tests/orchestrator/test_intervals.py``, 200
+  campaigns, the same resamples for both): 20 equal teams, some pair separated in 8 %
+  (10 + 10) / 8.5 % (20 + 20) / 7 % (80 + 80) of campaigns against Holm's 10.5 / 10 /
+  6.5 %; true gaps separated, 8 teams: 389 against Holm's 412 on 10 + 10, 3011 against
+  2954 on 80 + 80. ``method="holm"`` keeps Holm's method over the pairs' p-values. With
+  two teams both are the plain paired test at 95 %.
 - **Rank range.** Team ``t`` ranks from ``1 + #teams that beat t`` to ``N - #teams t beats``.
 
 Resampling is seeded (by the campaign's name), so the same store prints the same intervals.
@@ -30,6 +39,7 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from scipy import stats
@@ -37,6 +47,8 @@ from scipy import stats
 #: Resamples of a leaderboard's intervals and pairwise comparisons.
 RESAMPLES = 2000
 LEVEL = 0.95
+#: How the pairs are tested together: the max-t step-down (the leaderboard's) or Holm.
+Method = Literal["max-t", "holm"]
 
 
 @dataclass(frozen=True)
@@ -69,8 +81,11 @@ class Comparison:
     beats: np.ndarray
     #: ``prob[i, j]``: share of resamples in which team i's final is above team j's.
     prob: np.ndarray
-    #: ``p_value[i, j]``: the paired two-sided p-value of the difference (before Holm).
+    #: ``p_value[i, j]``: the paired two-sided p-value of the difference, alone (before
+    #: the correction for testing every pair).
     p_value: np.ndarray
+    #: How the pairs were tested together: ``max-t`` (step-down) or ``holm``.
+    method: Method = "max-t"
 
     def rank_range(self, team: str) -> tuple[int, int]:
         i = self.teams.index(team)
@@ -147,47 +162,156 @@ def interval(values: np.ndarray, present: np.ndarray, cells: Sequence[Cell],
     return out
 
 
-def compare(teams: Sequence[str], values: np.ndarray, present: np.ndarray,
-            cells: Sequence[Cell], counts: np.ndarray, level: float = LEVEL) -> Comparison:
-    """Every pair of teams compared on the episodes both have; Holm's method over the pairs
-    keeps the chance of separating any pair of equal teams at ``1 - level`` or less."""
-    n_teams = len(teams)
-    pairs = [(i, j) for i in range(n_teams) for j in range(i + 1, n_teams)]
+@dataclass(frozen=True)
+class _Pairs:
+    """Every pair ``i < j`` of teams on the episodes both have: the difference of their
+    statistics on the data and on each resample."""
+
+    i: np.ndarray  # P
+    j: np.ndarray  # P
+    diff: np.ndarray  # P: team i's statistic minus team j's (NaN: nothing shared)
+    boot: np.ndarray  # R x P: the same on each resample (NaN where undefined)
+    #: P: episodes both have, and cells with one (the small-sample expansion's n and k).
+    n: np.ndarray
+    k: np.ndarray
+    #: P: some cell has two shared episodes (else the pair's spread is unknown: one
+    #: episode a cell says nothing about how much a difference varies).
+    spread: np.ndarray
+
+
+#: A resampled spread below this (points) is none: the difference is the same on every
+#: episode.
+_TINY = 1e-9
+#: Pairs handled at a time (bounds the R x pairs temporaries of a large campaign).
+_CHUNK = 1024
+
+
+def _pairs(values: np.ndarray, present: np.ndarray, cells: Sequence[Cell],
+           counts: np.ndarray) -> _Pairs:
+    """A pair's statistic is ``sum_c w_c mean_c(x_i - x_j)`` over the episodes of each
+    cell both teams have: the difference of the two teams' statistics on those episodes
+    (as ``weighted_mean`` computes them), every pair at once."""
+    i, j = np.triu_indices(values.shape[0], k=1)
     ones = np.ones((1, values.shape[1]))
+    diff, boot = [np.zeros(0)], [np.zeros((counts.shape[0], 0))]
+    for at in range(0, len(i), _CHUNK):
+        a, b = i[at: at + _CHUNK], j[at: at + _CHUNK]
+        shared = present[a] & present[b]
+        d = np.where(shared, values[a] - values[b], 0.0)
+        diff.append(_pair_means(d, shared, ones, cells)[0])
+        boot.append(_pair_means(d, shared, counts, cells))
+    shared = present[i] & present[j]
+    n = shared[:, np.concatenate([c.episodes for c in cells])].sum(axis=1)
+    k = np.zeros(len(i), dtype=np.int64)
+    spread = np.zeros(len(i), dtype=bool)
+    for c in cells:
+        k += shared[:, c.episodes].any(axis=1)
+        spread |= shared[:, c.episodes].sum(axis=1) >= 2
+    return _Pairs(i, j, np.concatenate(diff), np.concatenate(boot, axis=1), n, k, spread)
+
+
+def _pair_means(d: np.ndarray, shared: np.ndarray, counts: np.ndarray,
+                cells: Sequence[Cell]) -> np.ndarray:
+    """``weighted_mean`` of each pair's per-episode differences ``d`` (pairs × episodes,
+    zero where not ``shared``) for each row of ``counts``: R × pairs."""
+    m = shared.astype(np.float64)
+    num = np.zeros((counts.shape[0], d.shape[0]))
+    wsum = np.zeros_like(num)
+    for cell in cells:
+        c = counts[:, cell.episodes]
+        n = c @ m[:, cell.episodes].T
+        ok = n > 0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            num += np.where(ok, cell.weight * (c @ d[:, cell.episodes].T) / n, 0.0)
+        wsum += np.where(ok, cell.weight, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(wsum > 0, num / wsum, np.nan)
+
+
+def compare(teams: Sequence[str], values: np.ndarray, present: np.ndarray,
+            cells: Sequence[Cell], counts: np.ndarray, level: float = LEVEL, *,
+            method: Method = "max-t") -> Comparison:
+    """Every pair of teams compared on the episodes both have, all pairs tested together
+    so that the chance of separating any pair of equal teams is ``1 - level`` or less:
+    by the max-t step-down on the resamples' joint distribution (default), or by Holm's
+    method over the pairs' p-values (``method="holm"``)."""
+    n_teams = len(teams)
+    pairs = _pairs(values, present, cells, counts)
     beats = np.zeros((n_teams, n_teams), dtype=bool)
     prob = np.full((n_teams, n_teams), 0.5)
     p_value = np.ones((n_teams, n_teams))
-    diff = np.zeros((n_teams, n_teams))
-    for i, j in pairs:
-        both = present[i] & present[j]
-        if not both.any():
-            continue
-        pair_present = np.stack([both, both])
-        v = values[[i, j]]
-        point = weighted_mean(v, pair_present, ones, cells)[0]
-        d = float(point[0] - point[1])
-        boot = weighted_mean(v, pair_present, counts, cells)
-        b = boot[:, 0] - boot[:, 1]
-        b = b[np.isfinite(b)]
-        if not np.isfinite(d) or not len(b):
-            continue
-        n = int(both[np.concatenate([c.episodes for c in cells])].sum())
-        k = sum(1 for c in cells if both[c.episodes].any())
-        se = float(b.std()) * widening(n, k, level)
-        p = float(2 * stats.norm.sf(abs(d) / se)) if se > 0 else float(d == 0)
-        above = float(np.mean(b > 0) + 0.5 * np.mean(b == 0))
-        diff[i, j], diff[j, i] = d, -d
-        p_value[i, j] = p_value[j, i] = p
-        prob[i, j], prob[j, i] = above, 1 - above
-    # Holm: the k-th smallest p-value is tested at (1 - level) / (m - k + 1), in order,
-    # stopping at the first that fails.
-    m = len(pairs)
-    for rank, p in enumerate(sorted(pairs, key=lambda ij: p_value[ij])):
-        if p_value[p] > (1 - level) / (m - rank):
+    finite = np.isfinite(pairs.boot)
+    kept = finite.sum(axis=0)
+    ok = np.isfinite(pairs.diff) & (kept > 0) & pairs.spread
+    b = np.where(finite, pairs.boot, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = b.sum(axis=0) / kept
+        spread = np.sqrt(np.where(finite, (b - mean) ** 2, 0.0).sum(axis=0) / kept)
+        above = (np.sum(b > 0, axis=0) + 0.5 * np.sum(finite & (b == 0), axis=0)) / kept
+        # The pair's difference in resampled standard errors, and in expanded ones (the
+        # intervals' widening): the p-value of the pair alone.
+        t = np.where(spread > _TINY, pairs.diff / spread, np.sign(pairs.diff) * np.inf)
+        nk, where = np.unique(np.stack([pairs.n, pairs.k]), axis=1, return_inverse=True)
+        z = t / np.array([widening(int(n), int(k), level) for n, k in nk.T])[where.ravel()]
+    t = np.where(ok, np.nan_to_num(t, nan=0.0), 0.0)
+    z = np.where(ok, np.nan_to_num(z, nan=0.0), 0.0)
+    p = np.where(ok, 2 * stats.norm.sf(np.abs(z)), 1.0)
+    prob[pairs.i[ok], pairs.j[ok]] = above[ok]
+    prob[pairs.j[ok], pairs.i[ok]] = 1 - above[ok]
+    p_value[pairs.i, pairs.j] = p_value[pairs.j, pairs.i] = p
+    if method == "holm":
+        shown = _holm(p, ok, level)
+    elif method == "max-t":
+        with np.errstate(invalid="ignore", divide="ignore"):
+            draws = np.where(spread > _TINY, (pairs.boot - pairs.diff) / spread, 0.0)
+        shown = _max_t(np.abs(t), np.where(finite, np.abs(draws), -np.inf), pairs.n, pairs.k,
+                       ok, level)
+    else:
+        raise ValueError(f"method {method!r}: 'max-t' or 'holm'")
+    up, down = shown & (pairs.diff > 0), shown & (pairs.diff < 0)
+    beats[pairs.i[up], pairs.j[up]] = True
+    beats[pairs.j[down], pairs.i[down]] = True
+    return Comparison(tuple(teams), beats, prob, p_value, method)
+
+
+def _holm(p: np.ndarray, ok: np.ndarray, level: float) -> np.ndarray:
+    """Holm: the k-th smallest of the m p-values is tested at (1 - level) / (m - k + 1),
+    in order, stopping at the first that fails. Returns the pairs shown apart."""
+    shown = np.zeros(len(p), dtype=bool)
+    m = len(p)
+    for rank, q in enumerate(np.argsort(p, kind="stable")):
+        if not ok[q] or p[q] > (1 - level) / (m - rank):
             break
-        i, j = p
-        beats[i, j], beats[j, i] = diff[i, j] > 0, diff[i, j] < 0
-    return Comparison(tuple(teams), beats, prob, p_value)
+        shown[q] = True
+    return shown
+
+
+def _max_t(t: np.ndarray, draws: np.ndarray, n: np.ndarray, k: np.ndarray, ok: np.ndarray,
+           level: float) -> np.ndarray:
+    """The max-|t| step-down over the pairs ``ok``: ``t`` (P) their studentized
+    differences, ``draws`` (R × P) the same centred on each resample (``-inf`` where a
+    pair has no shared episode). Returns the pairs shown apart."""
+    active = ok.copy()
+    shown = np.zeros_like(ok)
+    while active.any():
+        crit = float(np.quantile(draws[:, active].max(axis=1), level, method="higher"))
+        new = active & (t > expanded_critical(crit, n, k))
+        if not new.any():
+            break
+        shown |= new
+        active &= ~new
+    return shown
+
+
+def expanded_critical(crit: float, n: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """A critical value of studentized bootstrap differences, expanded for ``n`` episodes
+    in ``k`` cells as the intervals are, at the tail it stands for: the normal quantile
+    ``crit`` becomes ``sqrt(n / (n - k)) * t(n - k)`` at the same tail (``crit`` itself
+    where ``n - k < 1``). At ``crit = 1.96`` this is ``widening``."""
+    df = np.maximum(n - k, 1)
+    tail = stats.norm.sf(max(crit, 0.0))
+    wide = np.sqrt(n / df) * stats.t.isf(tail, df)
+    return np.where(n - k >= 1, wide, crit)
 
 
 def widening(n: int, k: int, level: float) -> float:

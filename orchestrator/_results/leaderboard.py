@@ -28,6 +28,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+from collections.abc import Collection
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -221,12 +222,12 @@ class Leaderboard:
 
 CI_KEY = "final_ci"
 LEGEND = ("Order (#): the final, then the paper's tie-breaks. Ranks: the ranks the paired "
-          "data allow (95 %, Holm over all pairs). 95% CI: the final's interval (stratified "
-          "bootstrap over episodes). Overlapping ranks: that order is not settled.")
+          "data allow (95 %, max-t step-down over all pairs). 95% CI: the final's interval "
+          "(stratified bootstrap over episodes). Overlapping ranks: that order is not settled.")
 INTERVALS_NOTE = ("95 % intervals from 2000 stratified bootstrap resamples of the episodes "
                   "(expanded percentile), seeded by the campaign; rank_range: [1 + teams that "
-                  "beat it, N - teams it beats], pairs compared on shared episodes with "
-                  "Holm's correction")
+                  "beat it, N - teams it beats], pairs compared on shared episodes, all "
+                  "together by a max-t step-down")
 
 
 def _ends(i: iv.Interval | None) -> tuple[str, str]:
@@ -292,8 +293,12 @@ def _rank_key(row: Row, keys: list[str], lower: dict[str, bool]) -> tuple[Any, .
     return tuple(out)
 
 
-def build_leaderboard(spec: CampaignSpec, store: Any) -> Leaderboard:
-    """The leaderboard of ``spec`` from what ``store`` (a ResultsStore) holds."""
+def build_leaderboard(spec: CampaignSpec, store: Any, *,
+                      baselines: Collection[str] = ()) -> Leaderboard:
+    """The leaderboard of ``spec`` from what ``store`` (a ResultsStore) holds.
+
+    ``baselines``: reference teams, shown with their interval but left out of the pairwise
+    comparison (no rank range; the other teams' ranges count teams only)."""
     plugin = load_track(spec.track)
     stored = store.results(spec.name)
     held = store.quarantined(spec.name)
@@ -315,7 +320,7 @@ def build_leaderboard(spec: CampaignSpec, store: Any) -> Leaderboard:
         r.rank = rows[i - 1].rank if same else i + 1
     mine = {sub.team: {(e.key.split, e.key.index): e.result for e in stored
                        if e.key.submission == sub.team} for sub in spec.submissions}
-    comparison = _uncertainty(spec, plugin, rows, mine)
+    comparison = _uncertainty(spec, plugin, rows, mine, set(baselines))
 
     failures = [
         FailureLine(e.key.submission, e.key.split, e.key.index, f.kind, f.status.value,
@@ -330,8 +335,8 @@ def build_leaderboard(spec: CampaignSpec, store: Any) -> Leaderboard:
 
 
 def _uncertainty(spec: CampaignSpec, plugin: TrackPlugin, rows: list[Row],
-                 results: dict[str, dict[tuple[str, int], EpisodeResult]]
-                 ) -> iv.Comparison | None:
+                 results: dict[str, dict[tuple[str, int], EpisodeResult]],
+                 baselines: set[str]) -> iv.Comparison | None:
     """Sets each row's intervals and rank range; returns the pairwise comparison."""
     episodes = sorted({k for mine in results.values() for k in mine})
     if not episodes:
@@ -368,10 +373,11 @@ def _uncertainty(spec: CampaignSpec, plugin: TrackPlugin, rows: list[Row],
         for row, got in zip(rows, iv.interval(vals, have, stat_cells, counts), strict=True):
             if got is not None and row.values.get(key) is not None:
                 row.intervals[key] = got
-    ranked = [t for t, (row, f) in enumerate(zip(rows, finals, strict=True))
-              if f is not None and row.final is not None]
-    for t in ranked:
+    with_final = [t for t, (row, f) in enumerate(zip(rows, finals, strict=True))
+                  if f is not None and row.final is not None]
+    for t in with_final:
         rows[t].interval = finals[t]
+    ranked = [t for t in with_final if teams[t] not in baselines]
     if len(ranked) < 2:
         for t in ranked:
             rows[t].rank_range = (1, 1)

@@ -1,4 +1,4 @@
-"""``eagc campaign …``: run, plan, leaderboard, commit, reveal, status.
+"""``eagc campaign …``: run, plan, leaderboard, finalists, commit, reveal, status.
 
 Mount with ``app.add_typer(campaign_app, name="campaign")``; run standalone as
 ``python -m orchestrator.cli.campaign``. Errors end in one line with the exit codes of
@@ -243,6 +243,44 @@ def leaderboard_cmd(
     if team is not None and format not in ("table", "json"):
         raise UsageError(f"--team reports are table or json, not {format!r}")
     _print_leaderboard(_load(campaign), format, output, team)
+
+
+@campaign_app.command("finalists")
+def finalists_cmd(
+    campaign: CampaignArg,
+    k: Annotated[int, typer.Option("--k", min=1, help="How many finalists the rules name.")],
+    baseline: Annotated[list[str] | None, typer.Option(
+        "--baseline", help="A reference team: shown, but not compared and not in the cut "
+                           "(repeat for several).")] = None,
+    cap: Annotated[int | None, typer.Option(
+        min=1, help="At most this many finalists when more qualify (default 2K).")] = None,
+    format: Annotated[str, typer.Option("--format", "-f", help="table or json.")] = "table",
+) -> None:
+    """The finalists at K: every team whose best rank is K or better (no team cut by a
+    coin flip), the first 2K by the point estimate if more qualify; who is in, who is out
+    and why, and whom the ranges could not separate at the cut."""
+    from difflib import get_close_matches
+
+    from orchestrator._errors import UsageError
+    from orchestrator._results.finalists import finalists
+    from orchestrator._results.leaderboard import build_leaderboard
+
+    if format not in ("table", "json"):
+        raise UsageError(f"--format {format!r}: table or json")
+    spec = _load(campaign)
+    teams = [s.team for s in spec.submissions]
+    for b in baseline or []:
+        if b not in teams:
+            near = get_close_matches(b, teams, n=1)
+            raise UsageError(f"--baseline {b!r} is not a team of {spec.name}"
+                             + (f". Did you mean {near[0]!r}?" if near else ""))
+    if cap is not None and cap < k:
+        raise UsageError(f"--cap {cap} is below --k {k}")
+    with _store(spec) as store:
+        board = build_leaderboard(spec, store, baselines=baseline or ())
+    cut = finalists(board, k, baselines=baseline or (), cap=cap)
+    print(cut.to_json() if format == "json" else cut.to_text(), end="\n" if format == "json"
+          else "")
 
 
 def _seeds(spec: Any) -> tuple[Any, list[Any]]:

@@ -86,8 +86,9 @@ def test_two_teams_20_points_apart_separate_on_80_80_not_on_5_5() -> None:
     assert outcome[5] <= 30, outcome  # overlapping ranges in at least 70 of 100
 
 
-@pytest.mark.slow
 def test_twenty_equal_teams_are_not_separated_in_90_percent_of_campaigns() -> None:
+    """The family-wise error of the default (max-t step-down) comparison: measured 11 of
+    200 campaigns here (Holm on the same resamples: 14)."""
     rng = np.random.default_rng(13)
     cells, strata = _design(20)
     falsely = 0
@@ -98,6 +99,44 @@ def test_twenty_equal_teams_are_not_separated_in_90_percent_of_campaigns() -> No
         falsely += bool(c.beats.any())
         assert all(c.rank_range(t)[0] <= c.rank_range(t)[1] for t in c.teams)
     assert falsely <= 20, f"{falsely} of 200 campaigns separated two equal teams"
+
+
+EIGHT = [0.7, 0.6, 0.55, 0.5, 0.4, 0.35, 0.3, 0.2]
+
+
+def _separations(n: int, campaigns: int, seed: int) -> dict[str, tuple[int, int]]:
+    """(true gaps separated, wrong-way separations) of eight teams of known skills over
+    ``campaigns`` campaigns of n + n episodes, Holm and max-t on the same resamples."""
+    rng = np.random.default_rng(seed)
+    cells, strata = _design(n)
+    truth = np.array(EIGHT)[:, None] > np.array(EIGHT)[None, :]
+    got = {"holm": [0, 0], "max-t": [0, 0]}
+    for _ in range(campaigns):
+        x = _campaign(EIGHT, n, rng)
+        counts = iv.resample_counts(strata, 500, rng)
+        for method, tally in got.items():
+            c = iv.compare([f"t{i}" for i in range(8)], x, np.ones_like(x, dtype=bool), cells,
+                           counts, method=method)  # type: ignore[arg-type]
+            tally[0] += int((c.beats & truth).sum())
+            tally[1] += int((c.beats & ~truth).sum())
+    return {m: (a, b) for m, (a, b) in got.items()}
+
+
+def test_max_t_separates_more_true_gaps_than_holm_on_80_80_and_nearly_as_many_on_10_10(
+        ) -> None:
+    """Eight teams of known skills (success 20-70 %, gaps of 2-25 points), 100 campaigns
+    each. On 80 + 80 the max-t step-down separates at least as many true gaps as Holm
+    (measured 1502 against 1471 of 2800); on 10 + 10 it separates slightly fewer (measured
+    177 against 191): there Holm's normal tails are too thin at its Bonferroni levels (20
+    equal teams on 10 + 10: some pair separated in 10.5 % of campaigns under Holm, 8 %
+    under max-t), and the max-t's expansion at the tail it stands for pays for its honesty.
+    Neither separates a pair the wrong way more than once in a hundred campaigns."""
+    big = _separations(80, 100, 41)
+    assert big["max-t"][0] >= big["holm"][0], big
+    small = _separations(10, 100, 43)
+    assert small["max-t"][0] >= 0.9 * small["holm"][0], small
+    for got in (big, small):
+        assert got["max-t"][1] <= max(1, got["holm"][1]), got
 
 
 def test_a_team_ahead_on_every_shared_episode_beats_one_with_extra_episodes() -> None:

@@ -22,7 +22,7 @@ target, state backup and divergence check), the contact summary, the task's eval
 the observation add on top of the physics. Families run in interleaved rounds, so load
 elsewhere on the machine spreads over all of them. Optionally one family again with
 ``render_rgbd=True`` (``MUJOCO_GL=egl`` unless already set), beside a raw ``mujoco.Renderer``
-rendering the same RGB and depth images.
+rendering the same RGB and depth images of both cameras.
 
 Not collected by pytest (the file is ``bench_*.py``).
 """
@@ -140,8 +140,11 @@ def _time_raw(case: Case, substeps: int) -> None:
 
 
 def _time_render(case: Case, n: int) -> None:
-    """Raw ``mujoco.Renderer``: the same RGB then depth images the env's observation has."""
+    """Raw ``mujoco.Renderer``: the same RGB then depth images the env's observation has,
+    of every camera (``CAMERAS``)."""
     import mujoco
+
+    from simhost.worlds.track2._bench import CAMERAS
 
     env = case.env
     h, w = env.image_size
@@ -157,12 +160,13 @@ def _time_render(case: Case, n: int) -> None:
             mujoco.mj_setState(env.model, env.data, st, sig)
             mujoco.mj_forward(env.model, env.data)
             t0 = clock()
-            r.update_scene(env.data, camera="overview")
-            r.render()
-            r.enable_depth_rendering()
-            r.update_scene(env.data, camera="overview")
-            r.render()
-            r.disable_depth_rendering()
+            for camera in CAMERAS:
+                r.update_scene(env.data, camera=camera)
+                r.render()
+                r.enable_depth_rendering()
+                r.update_scene(env.data, camera=camera)
+                r.render()
+                r.disable_depth_rendering()
             case.render_ns.append(clock() - t0)
     finally:
         r.close()

@@ -14,7 +14,8 @@ user may touch:
   :func:`instance_distance`, ``FAMILIES``, ``PARAM_TABLES``, :func:`family_step_cap`;
 - the environment: :class:`BenchEnv` (a ``gymnasium.Env``; :class:`BenchInfo`, its
   ``info`` typed), :func:`register_envs`
-  (``eagc/Bench-<Family>-v0``, ``split=`` as a keyword), ``PART_FIELDS``;
+  (``eagc/Bench-<Family>-v0``, ``split=`` as a keyword), ``PART_FIELDS``, ``CAMERAS`` (the
+  two cameras of the RGB-D observation) and ``CAMERA_FOVY``;
 - ground truth for scoring: :class:`TaskTruth`, :func:`task_truth`;
 - the scripted expert: :class:`ScriptedExpert` (privileged, or through the observations),
   :func:`expert_policy`;
@@ -37,7 +38,7 @@ import importlib
 import os
 from typing import TYPE_CHECKING, Any
 
-from ._bench import PART_FIELDS
+from ._bench import CAMERA_FOVY, CAMERAS, PART_FIELDS
 from ._config import (
     OFFICIAL_IMAGE_SIZE,
     SPLITS,
@@ -100,6 +101,8 @@ _LAZY = {
 
 __all__ = [
     "ATTEMPT_RGB",
+    "CAMERAS",
+    "CAMERA_FOVY",
     "DEMO_RGB",
     "ENV_IDS",
     "INK",

@@ -47,8 +47,9 @@ class ObservationConfig(_Frozen):
     averages away — and Gaussian noise to its position (``pose_noise_m`` per axis) and yaw
     (``yaw_noise_rad``), and reports the yaw only modulo the part's symmetry when
     ``symmetric_yaw``. A part the gripper hides from the
-    camera (``occlusion``: every line of sight from the camera to the part's sample points
-    first meets the gripper) keeps its last measurement, and the row's ``age`` grows. All
+    cameras (``occlusion``: from both of the bench's cameras, every line of sight to the
+    part's sample points first meets the gripper) keeps its last measurement, and the row's
+    ``age`` grows. All
     noise comes from the episode's seeded generator: the same seed, the same noise.
     """
 
@@ -85,8 +86,10 @@ class ObservationConfig(_Frozen):
                                  "slide position of articulated parts (else 0).")
     goal_vector: bool = Field(True, description="The observation has 'goal', the task's stated "
                               "goal parameters.")
-    rgbd: bool = Field(False, description="Render 'rgb' and 'depth' from the overview camera.")
-    segmentation: bool = Field(False, description="Also render 'segmentation' (part ids).")
+    rgbd: bool = Field(False, description="Render 'rgb' and 'depth' from the overview camera "
+                       "and 'rgb_front' and 'depth_front' from the front camera.")
+    segmentation: bool = Field(False, description="Also render 'segmentation' and "
+                               "'segmentation_front' (part ids).")
     image_size: tuple[int, int] = Field((96, 128), description="(height, width) of images "
                                         "(the official splits: OFFICIAL_IMAGE_SIZE).")
 

@@ -22,9 +22,11 @@ hidden seed), so two teams are compared **paired**, on the episodes both have.
   value is the 95 % quantile, over the resamples, of the largest centred studentized
   difference among the pairs not yet shown apart, expanded for small samples at the tail
   it stands for as the intervals are (``expanded_critical``); the pairs beyond it are
-  shown apart and leave the set, and the quantile is recomputed over the rest until no
-  more pair is shown apart. Measured (``tests/orchestrator/test_intervals.py``, 200
-  campaigns, the same resamples for both): 20 equal teams, some pair separated in 8 %
+  shown apart and leave the set (both directions: the test is two-sided, as Holm's was;
+  Mogstad et al.'s one-sided form keeps a separated pair's other direction in the max),
+  and the quantile is recomputed over the rest until no more pair is shown apart.
+  Simulated as ``tests/orchestrator/test_intervals.py`` does (200 campaigns, the same
+  resamples for both; ``docs/rankings.md``): 20 equal teams, some pair separated in 8 %
   (10 + 10) / 8.5 % (20 + 20) / 7 % (80 + 80) of campaigns against Holm's 10.5 / 10 /
   6.5 %; true gaps separated, 8 teams: 389 against Holm's 412 on 10 + 10, 3011 against
   2954 on 80 + 80. ``method="holm"`` keeps Holm's method over the pairs' p-values. With

@@ -338,7 +338,8 @@ class Channel:
         row = self.row_for(sid, None)
         return Work(id=sid, team=row.team, phase=row.phase, kind=kind,  # type: ignore[arg-type]
                     image=f"{registry}/{row.repository}@{row.digest}",
-                    digest=row.digest, image_id=row.image_id, lease_s=self.spec.lease_s,
+                    digest=row.digest, image_id=row.image_id,
+                    lease_s=self.clock.real_s(self.spec.lease_s),
                     disclosure=row.disclosure)
 
     def _leased(self, sid: str, runner: str) -> Row:

@@ -76,20 +76,38 @@ class ChannelError(OrchestratorError):
 
 class Clock:
     """The channel's time: the wall clock, or a compressed one (``speed`` channel seconds
-    per real second from ``origin``) for tests and rehearsals."""
+    per real second from ``origin`` at the wall time ``real0``) for tests and rehearsals.
+    A compressed clock is kept in the channel's database (``state``), so that every
+    process working on its data reads the same time."""
 
-    def __init__(self, origin: float | None = None, speed: float = 1.0) -> None:
+    def __init__(self, origin: float | None = None, speed: float = 1.0,
+                 real0: float | None = None) -> None:
         self.origin = time.time() if origin is None else origin
         self.speed = speed
-        self._real0 = time.monotonic() if origin is not None or speed != 1.0 else None
+        compressed = origin is not None or speed != 1.0
+        self._real0 = (time.time() if real0 is None else real0) if compressed else None
 
     def now(self) -> float:
         if self._real0 is None:
             return time.time()
-        return self.origin + (time.monotonic() - self._real0) * self.speed
+        return self.origin + (time.time() - self._real0) * self.speed
 
     def utc(self, t: float | None = None) -> datetime:
         return datetime.fromtimestamp(self.now() if t is None else t, UTC)
+
+    def real_s(self, channel_s: float) -> float:
+        """How many real seconds ``channel_s`` of the channel's time last (a lease's)."""
+        return channel_s / self.speed if self.speed > 0 else channel_s
+
+    def state(self) -> str | None:
+        """The clock as JSON for other processes (None: the wall clock)."""
+        if self._real0 is None:
+            return None
+        return json.dumps({"origin": self.origin, "speed": self.speed, "real0": self._real0})
+
+    @classmethod
+    def of(cls, state: str | None) -> Clock:
+        return cls() if not state else cls(**json.loads(state))
 
 
 def token_hash(token: str) -> str:

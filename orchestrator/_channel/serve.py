@@ -86,11 +86,11 @@ def open_channel(data: Path) -> Channel:
     """The channel over ``data`` with the challenge file it last served (the organizer's
     commands, serving or not)."""
     db = open_db(data)
-    text = db.meta("spec")
+    text, clock = db.meta("spec"), db.meta("clock")
     db.close()
     if text is None:
         raise ChannelError(f"{data} holds no challenge yet: serve it once")
-    return Channel(ChallengeSpec.model_validate_json(text), data)
+    return Channel(ChallengeSpec.model_validate_json(text), data, clock=Clock.of(clock))
 
 
 def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int = 0,
@@ -106,6 +106,12 @@ def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int
     channel = Channel(spec, data, clock=clock)
     channel.db.set_meta("token_days", str(spec.token_days))
     channel.db.set_meta("spec", spec.model_dump_json())  # for `eagc challenge` off-line
+    state = channel.clock.state()
+    if state is not None:  # a compressed clock: every process on the data reads it
+        channel.db.set_meta("clock", state)
+    else:
+        with channel.db.tx() as db:
+            db.execute("DELETE FROM meta WHERE key='clock'")
     registry = RegistryProcess(data / "registry", channel.keys,
                                realm=f"http://{host}:{port}/auth/token", host=host,
                                port=registry_port)

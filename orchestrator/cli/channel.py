@@ -32,6 +32,8 @@ err = Console(stderr=True)
 
 DataOpt = Annotated[Path, typer.Option("--data", help="The channel's data folder.")]
 DEFAULT_DATA = Path("channel")
+#: The example files (found from the installed package, as `eagc demo` finds them).
+DEMOS = Path(__file__).resolve().parents[2] / "examples" / "campaigns"
 
 
 @challenge_app.command("serve")
@@ -55,7 +57,14 @@ def serve_cmd(
     from orchestrator._channel.serve import load_challenge, serve
 
     spec = load_challenge(challenge)
-    clock = Clock(speed=clock_speed) if clock_speed != 1.0 else None
+    clock = None
+    if clock_speed != 1.0:  # a compressed clock; a restart resumes the one it kept
+        kept = None
+        if (data / "channel.sqlite").is_file():
+            from orchestrator._channel.serve import open_db
+
+            kept = open_db(data).meta("clock")
+        clock = Clock.of(kept) if kept else Clock(speed=clock_speed)
     serve(spec, data, host=host, port=port, registry_port=registry_port, workers=workers,
           address=address, runner=runner, clock=clock,
           say=lambda s: err.print(s, highlight=False, soft_wrap=True))
@@ -378,6 +387,40 @@ def release_cmd(phase: Annotated[str, typer.Argument(help="The phase.")],
         out.print(f"  {path}", highlight=False)
     out.print(f"released phase {phase}: the public board is {to / 'board.md'}",
               highlight=False)
+
+
+@challenge_app.command("rehearse")
+def rehearse_cmd(
+    output: Annotated[Path, typer.Option(help="Where its files, manifest and public pages "
+                                         "go.")] = Path("runs/rehearsal"),
+) -> None:
+    """Play the whole calendar with the example teams in minutes: a real channel,
+    registry and Ray on a compressed clock (docs/challenge.md)."""
+    from orchestrator._channel.rehearse import Rehearsal
+    from orchestrator._images.build import build_agent_base, build_folder, example_agents
+    from orchestrator._runtimes.docker import docker_client
+
+    image = "eagc/sanity-agent:latest"
+    client = docker_client()
+    with err.status("building the example image offline (first time: a few minutes)…"):
+        build_agent_base(client, lambda _: None)
+        build_folder(client, example_agents()[image], image, lambda _: None)
+    disclosure = DEMOS / "baselines.disclosure.yaml"
+    r = Rehearsal(output.resolve(), image, disclosure,
+                  say=lambda s: err.print(s, highlight=False, soft_wrap=True))
+    try:
+        r.start()
+        summary = r.run()
+    finally:
+        r.stop()
+    for phase, rows in summary["boards"].items():
+        out.print(f"phase {phase}: " + ", ".join(
+            f"{x['rank']}. {x['team']} ({x['ranks']})" for x in rows), highlight=False)
+    out.print(f"finalists: {', '.join(summary['finalists'])}", highlight=False)
+    out.print(f"audit: {summary['findings']} finding(s), each ruled on", highlight=False)
+    out.print(f"manifest: {summary['manifest']} "
+              f"({'verified' if summary['verified'] else 'NOT verified'})", highlight=False)
+    out.print(f"public board: {summary['public']}", highlight=False)
 
 
 @challenge_app.command("cancel")

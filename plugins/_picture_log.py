@@ -2,7 +2,7 @@
 
 ``read_episode(mcap, pose_key)``: the scenario record, the robot's pose at each logged
 observation (the observation tensor ``pose_key``: Track 1's ``odometry``, sanity's
-``position``), the host's events (``simhost.host._records``' models, with their log times),
+``position``), the host's events (``simhost.host``'s record models, with their log times),
 and the score (the ``/eagc/score`` record is the episode's ``EpisodeResult``; None when
 the episode was never scored). A log without a scenario, or with a record that does not
 read, raises ``McapRecordError`` (a ``ValueError``), in one line.
@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from schemas import EpisodeResult
-from simhost.host._records import (
+from simhost.host import (
     EpisodeEndEvent,
     HostEventModel,
     McapRecordError,

@@ -36,9 +36,9 @@ import numpy as np
 from pydantic import BaseModel
 
 import schemas
+import schemas as proto
 from plugins._base import TrackPlugin
 from plugins._registry import available_tracks, load_track
-from schemas import _protocol as proto
 from simhost.host import StageSpec
 
 DOC = Path(schemas.__file__).with_name("PROTOCOL.md")

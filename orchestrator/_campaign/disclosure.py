@@ -28,8 +28,14 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict
 
-from schemas import CampaignSpec, ResourceDisclosure, SchemaError, parse_json
-from schemas._io import FileProblems, Problem
+from schemas import (
+    CampaignSpec,
+    FileProblems,
+    Problem,
+    ResourceDisclosure,
+    SchemaError,
+    parse_json,
+)
 
 #: The folder of a campaign's kept disclosures, under its campaign folder.
 FOLDER = "submissions"

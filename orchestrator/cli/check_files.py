@@ -48,7 +48,7 @@ def example_of(model: type[BaseModel]) -> Any:
 
 def schema_of(top: type[BaseModel], model: type[BaseModel]) -> str:
     """Where the JSON Schema of ``model`` (a part of file model ``top``) is."""
-    from schemas._generate import JSON_DIR, TARGETS
+    from schemas import JSON_DIR, TARGETS
 
     name = next((n for n, t in TARGETS.items() if t is top), None)
     if name is None:
@@ -64,7 +64,7 @@ def schema_of(top: type[BaseModel], model: type[BaseModel]) -> str:
 def failing_models(top: type[BaseModel], data: bytes, jsonl: bool
                    ) -> list[type[BaseModel]]:
     """The models (``top`` or its parts) of the objects that failed, in file order."""
-    from schemas._io import FileProblems, model_at, parse_episode_log, parse_json
+    from schemas import FileProblems, model_at, parse_episode_log, parse_json
 
     try:
         if jsonl:

@@ -207,8 +207,7 @@ def limits_of(*, time_scale: float = 1.0, **values: Any) -> Any:
     A time scale in (0, 1] scales the startup budget too (scaled_startup_s)."""
     from pydantic import ValidationError
 
-    from schemas import Limits
-    from schemas._errors import describe
+    from schemas import Limits, describe
 
     if 0 < time_scale <= 1:
         values.setdefault("startup_s", scaled_startup_s(time_scale))

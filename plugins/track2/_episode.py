@@ -30,8 +30,8 @@ import numpy as np
 
 from plugins.track2._outcome import AttemptRecord, Track2Outcome
 from plugins.track2._scenario import Track2Scenario
-from schemas._protocol import ActionResult, EndReason, FieldSpec, HostMessage
-from simhost.host._episode import Observation, Pose, StageEnd, StepOutcome, TrackEpisode
+from schemas import ActionResult, EndReason, FieldSpec, HostMessage
+from simhost.host import Observation, Pose, StageEnd, StepOutcome, TrackEpisode
 from simhost.worlds.track2 import BenchInfo
 
 DEMONSTRATION, PARSING, EXECUTION = "demonstration", "parsing", "execution"
@@ -148,7 +148,7 @@ class Track2Episode(TrackEpisode):
 
     def poses(self) -> Mapping[str, Pose]:
         """The TCP and every present part, true poses (organizer-only)."""
-        from simhost.worlds.track2._observe import quat_z
+        from simhost.worlds.track2 import quat_z
 
         ee = self.env.sim.ee()
         out = {"tcp": Pose(position=(float(ee[0]), float(ee[1]), float(ee[2])),

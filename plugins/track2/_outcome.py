@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from simhost.host._episode import EpisodeOutcome
+from simhost.host import EpisodeOutcome
 
 
 class AttemptRecord(BaseModel):

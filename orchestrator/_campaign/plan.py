@@ -12,8 +12,9 @@ benchmark).
 
 A gap of ``resolve`` points is separated with probability ``power`` when
 ``resolve >= (z(1 - a/2) + z(power)) * se``, where ``a`` is ``1 - confidence`` divided by
-the number of pairs of the campaign's teams (the first step of Holm's method, which the
-leaderboard uses), and ``se`` is widened as the leaderboard widens its intervals on small
+the number of pairs of the campaign's teams (Bonferroni over every pair: a bound the
+leaderboard's max-t step-down never needs more than, so the plan is safe), and ``se`` is
+widened as the leaderboard widens its intervals on small
 samples. Splits keep the campaign's proportions of episodes.
 
 Cost: episodes x each split's episode duration (the pilot's mean wall time, else the

@@ -2,7 +2,7 @@
 
     python ray_sentinel.py DRIVER_PID TEMP_DIR
 
-A driver that starts an embedded Ray (``orchestrator._campaign.spec.ray_connection``) gives it a
+A driver that starts an embedded Ray (``orchestrator._campaign.cluster.ray_connection``) gives it a
 temp dir of its own and starts this sentinel in a session of its own. When the driver ends
 cleanly it shuts Ray down and removes the dir itself, and the sentinel finds nothing to do.
 When the driver is killed (SIGKILL, OOM), Ray's GCS and raylet follow it, but its dashboard

@@ -141,8 +141,8 @@ def write_demo_packet(
       params: the source instance.
       seed: passed to ``env.reset(seed=...)`` (jitter and observation noise); not written.
       config: the split's bench config (default: the dev split's).
-      frames: also write RGB frames (and depth in ``frame_depth``) every ``frame_every``
-        observations and the last one.
+      frames: also write the ``overview`` camera's RGB frames (and depth in
+        ``frame_depth``) every ``frame_every`` observations and the last one.
       image_size: ``(height, width)`` of the frames (default: the config's).
 
     Returns:

@@ -104,7 +104,7 @@ class BenchEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         the variation of sampled instances.
       config: the bench config (overrides the split's).
       difficulty: overrides the split's difficulty when sampling with ``instance_seed``.
-      render_mode: ``None`` or ``"rgb_array"``.
+      render_mode: ``None`` or ``"rgb_array"`` (``render()``: the ``overview`` camera's RGB).
       render_rgbd: add (True) or drop (False) ``rgb`` and ``depth`` whatever the split says.
       image_size: ``(height, width)`` of rendered images (default: the split's).
       max_steps: truncate after this many steps (default: the family's cap).

@@ -97,7 +97,7 @@ class Plan:
         lines = wrapped(
             f"{self.campaign} · {self.track}: episodes per split to separate two teams "
             f"{self.resolve:g} points apart ({self.power:.0%} of the time, "
-            f"{self.confidence:.0%} confidence, Holm over {self.pairs} pair"
+            f"{self.confidence:.0%} confidence, Bonferroni over {self.pairs} pair"
             f"{'s' if self.pairs != 1 else ''} of {self.teams} teams)", limit)
         s = self.splits
         lines += ["", *table_lines([

@@ -264,6 +264,7 @@ def create_app(channel: Channel) -> FastAPI:
                  "closes": None if w.closes is None else utc_text(w.closes),
                  "closes_aoe": None if w.closes is None else aoe_text(w.closes),
                  "who": w.phase.who, "board": w.phase.board, "counts": w.phase.counts,
+                 "resolves": (channel.sizing(w.phase) or {}).get("resolve"),
                  "commitment": channel.seeds(w.phase)[0]} for w in channel.windows()]
 
     @app.get("/api/v1/phases/{phase}/seeds")

@@ -120,13 +120,57 @@ class Channel:
     def campaign(self, phase: ChallengePhase, runs: Path,
                  submissions: tuple[Submission, ...] = ()) -> CampaignSpec:
         """The campaign every submission of ``phase`` plays (its seeds: campaign name,
-        split and index, from the phase's own secret)."""
+        split and index, from the phase's own secret), with the episodes an organizer
+        approved for it from the previous phase's data (``sizing``), else the file's."""
         secret = phase.secret or f"file:{self.phase_secret(phase)}"
+        sized = self.sizing(phase)
+        splits = tuple(s.model_copy(update={"episodes": sized["episodes"][s.name]})
+                       if sized and s.name in sized["episodes"] else s for s in phase.splits)
         return CampaignSpec(
             name=self.spec.campaign_name(phase), track=self.spec.track, phase=phase.kind,
-            splits=phase.splits, limits=phase.limits, retries=phase.retries, secret=secret,
+            splits=splits, limits=phase.limits, retries=phase.retries, secret=secret,
             output=runs,
             submissions=submissions or (Submission(team="placeholder", image="none"),))
+
+    def sizing(self, phase: ChallengePhase) -> dict[str, Any] | None:
+        """The sizing an organizer approved for ``phase`` (``approve_sizing``), if any."""
+        text = self.db.meta(f"sizing:{phase.name}")
+        return None if text is None else dict(json.loads(text))
+
+    def approve_sizing(self, phase: ChallengePhase, plan: Any, *, cost_cap_h: float,
+                       who: str, why: str) -> None:
+        """Sets ``phase``'s episodes to ``plan``'s (``eagc campaign plan`` on the previous
+        phase's results), before the phase opens (its seeds are then final) and within the
+        organizer's cost cap (wall hours on the plan's workers)."""
+        window = next(w for w in self.windows() if w.phase.name == phase.name)
+        if window.opens <= self.clock.utc():
+            raise ChannelError(f"phase {phase.name} opened {utc_text(window.opens)}: its "
+                               "episodes, and so its seeds, are final", 409)
+        if plan.wall_hours > cost_cap_h:
+            raise ChannelError(f"the plan costs {plan.wall_hours:.1f} h of wall time on "
+                               f"{plan.workers} worker(s), over the cap of {cost_cap_h:g} h: "
+                               "resolve a larger gap, add workers or raise the cap", 409)
+        doc = {"episodes": {s.name: s.episodes_needed for s in plan.splits},
+               "resolve": plan.resolve, "wall_hours": plan.wall_hours,
+               "source": plan.spread_source}
+        with self.db.tx() as db:
+            db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                       (f"sizing:{phase.name}", json.dumps(doc)))
+            self.db.record_action(db, who, "sizing", phase.name,
+                                  f"{doc['episodes']} to resolve {plan.resolve:g} points, "
+                                  f"{plan.wall_hours:.1f} h: {why}")
+
+    def pilot(self, phase: ChallengePhase) -> dict[str, dict[tuple[str, int], Any]]:
+        """The counted submissions' results of a (previous) phase, by team: what
+        ``eagc campaign plan`` measures paired spreads and episode times on."""
+        counted = {r.id: team for team, r in self.counted(phase).items()}
+        out: dict[str, dict[tuple[str, int], Any]] = {}
+        with self.store() as store:
+            for e in store.results(self.spec.campaign_name(phase)):
+                team = counted.get(e.key.submission)
+                if team is not None:
+                    out.setdefault(team, {})[(e.key.split, e.key.index)] = e.result
+        return out
 
     def phase_secret(self, phase: ChallengePhase) -> Path:
         path = self.data / "secrets" / f"{phase.name}.secret"

@@ -389,6 +389,42 @@ def release_cmd(phase: Annotated[str, typer.Argument(help="The phase.")],
               highlight=False)
 
 
+@challenge_app.command("plan")
+def plan_cmd(
+    phase: Annotated[str, typer.Argument(help="The phase to size.")],
+    source: Annotated[str, typer.Option("--from", help="The previous phase, whose paired "
+                                        "spreads and episode times it measures.")],
+    resolve: Annotated[float, typer.Option(help="The gap (points) to separate.", min=0.1)],
+    data: DataOpt = DEFAULT_DATA,
+    workers: Annotated[int, typer.Option(help="Workers the runner has.", min=1)] = 1,
+    approve: Annotated[bool, typer.Option(help="Make it the phase's episodes (before it "
+                                          "opens).")] = False,
+    cost_cap: Annotated[float, typer.Option("--cost-cap", help="Wall hours the approved "
+                                            "plan may take at most.")] = 48.0,
+    why: Annotated[str, typer.Option("--why", help="Why (kept with the approval).")] = "",
+) -> None:
+    """Size a phase from the previous phase's results: the episodes that separate two teams
+    RESOLVE points apart, and their cost; --approve makes them the phase's."""
+    from orchestrator._campaign.plan import plan_campaign
+    from orchestrator._channel.serve import open_channel
+    from schemas import Submission
+
+    ch = open_channel(data)
+    target, before = ch.phase(phase), ch.phase(source)
+    pilot = ch.pilot(before)
+    teams = max(2, len(ch.db.teams()) if target.who == "all" else len(ch.finalists(target)))
+    spec = ch.campaign(target, ch.data / "runs", tuple(
+        Submission(team=f"t{i}", image="none") for i in range(teams)))
+    plan = plan_campaign(spec, resolve=resolve, workers=workers, pilot=pilot,
+                         pilot_name=f"phase {source}")
+    out.print(plan.to_text(), highlight=False, end="")
+    if approve:
+        ch.approve_sizing(target, plan, cost_cap_h=cost_cap, who=_who(),
+                          why=why or "sized from data")
+        out.print(f"approved: phase {phase} plays {plan.episodes_per_team} episodes a "
+                  f"submission, resolving {resolve:g} points", highlight=False)
+
+
 @challenge_app.command("rehearse")
 def rehearse_cmd(
     output: Annotated[Path, typer.Option(help="Where its files, manifest and public pages "

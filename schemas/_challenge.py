@@ -137,6 +137,9 @@ class ChallengeSpec(_Model):
     teams: tuple[str, ...] = Field(default=(), description="Teams added at the first start "
                                    "(more with `eagc challenge teams add`).")
     phases: tuple[ChallengePhase, ...] = Field(min_length=1)
+    baselines: tuple[str, ...] = Field(default=(), description="Teams that submit the "
+                                       "organizers' baselines: reference rows on every "
+                                       "board, out of the rank ranges and the finalists.")
     token_days: float = Field(default=60.0, gt=0, description="Lifetime of a team's token.")
     storage_mb_per_team: int = Field(default=20_000, ge=1, description="The registry's "
                                      "storage a team's images may take; pushes beyond it "

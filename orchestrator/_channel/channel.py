@@ -628,8 +628,9 @@ class Channel:
             return None
         subs = tuple(Submission(team=r.id, image=r.repository) for r in counted.values())
         spec = self.campaign(phase, self.data / "runs", subs)
+        baselines = [r.id for t, r in counted.items() if t in self.spec.baselines]
         with self.store() as store:
-            board = build_leaderboard(spec, store)
+            board = build_leaderboard(spec, store, baselines=baselines)
         names = {r.id: r.team for r in counted.values()}
         for row in board.rows:
             row.team = names.get(row.team, row.team)

@@ -174,6 +174,7 @@ def release(channel: Channel, phase: ChallengePhase, out: Path, *, who: str,
         raise ChannelError(f"phase {phase.name} has no scored submission to release", 409)
     out.mkdir(parents=True, exist_ok=True)
     out_of = {f["team"] for f in findings(channel, phase.name) if f["ruling"] == "disqualify"}
+    counted = channel.counted(phase)
     rows = [{"rank": r.rank, "ranks": r.ranks, "team": r.team, "final": r.final,
              "low": r.interval.low if r.interval else None,
              "high": r.interval.high if r.interval else None,
@@ -200,7 +201,49 @@ def release(channel: Channel, phase: ChallengePhase, out: Path, *, who: str,
               + (f"{x['low']:.1f}–{x['high']:.1f}" if x["low"] is not None else "—")
               + f" | {x['episodes']} |" for x in rows]
     (out / "board.md").write_text("\n".join(lines) + "\n")
-    written += [out / "board.json", out / "board.md"]
+    (out / "index.html").write_text(public_page(channel, phase, board, out_of, counted))
+    written += [out / "board.json", out / "board.md", out / "index.html"]
     with channel.db.tx() as db:
         channel.db.record_action(db, who, "release", phase.name, why)
     return written
+
+
+def _disclosure(team: str, text: str | None) -> list[str]:
+    """A team's resource disclosure in a few lines (Table VIII), or why there is none."""
+    from orchestrator._campaign.disclosure import (
+        KeptDisclosure,
+        parse_disclosure,
+        summary_lines,
+    )
+    from schemas import FileProblems
+
+    if not text:
+        return summary_lines(KeptDisclosure(team=team, status="missing"))
+    try:
+        got = parse_disclosure(text.encode(), source=f"{team}'s disclosure", suffix=".yaml")
+    except FileProblems as e:
+        return summary_lines(KeptDisclosure(team=team, status="invalid",
+                                            problems=tuple(e.lines)))
+    return summary_lines(KeptDisclosure(team=team, status="ok", disclosure=got))
+
+
+def public_page(channel: Channel, phase: ChallengePhase, board: Any, out_of: set[str],
+                counted: dict[str, Any]) -> str:
+    """The released board as a page: the track's columns (Table IV / VII), each final's
+    interval and rank range, the baselines as reference rows, each team's disclosure, and
+    the key that signed the final's manifest."""
+    from orchestrator._channel.pages import _env
+
+    columns = [c for c in board.columns if c.key != "final"]
+    rows = [{"rank": r.rank, "ranks": r.ranks, "team": r.team, "final": r.final,
+             "ci": r.ci, "baseline": r.team in channel.spec.baselines,
+             "cells": [board.cell(r, c) for c in columns],
+             "disclosure": _disclosure(r.team, counted[r.team].disclosure
+                                       if r.team in counted else None)}
+            for r in board.rows if r.team not in out_of]
+    key = next((p for p in (channel.data / "final" / "manifest.pub",
+                            channel.data / "keys" / "manifest.pub") if p.is_file()), None)
+    return str(_env().get_template("release.html").render(
+        challenge=channel.spec.name, track=channel.spec.track, phase=phase.name,
+        titles=[c.title for c in columns], rows=rows, out_of=sorted(out_of),
+        key=key.read_text() if key else None, now=channel.clock.utc()))

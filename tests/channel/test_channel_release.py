@@ -55,7 +55,8 @@ def test_findings_hold_the_release_until_ruled_and_past_their_appeal(
     assert theirs.value.status == 404
     ch.clock.origin += ch.spec.appeal_s + 1
     written = release(ch, phase, out, who="org", why="phase over")
-    assert written[-2:] == [out / "board.json", out / "board.md"]  # teams first, board last
+    # The teams' reports first, the public board last.
+    assert written[-3:] == [out / "board.json", out / "board.md", out / "index.html"]
     board = json.loads((out / "board.json").read_text())
     assert [r["team"] for r in board["rows"]] == ["team-b"]  # team-a disqualified
     assert board["disqualified"] == ["team-a"]
@@ -80,3 +81,22 @@ def test_a_ruling_is_one_of_three_and_late_appeals_are_refused(tmp_path: Path) -
     with pytest.raises(ChannelError, match="appeal window of finding .* closed"):
         appeal(ch, f, "team-b", "late")
     assert holds(ch, phase.name) == []
+
+
+def test_the_public_page_shows_the_tracks_columns_disclosures_and_baselines(
+        tmp_path: Path) -> None:
+    from test_team_page import SPEC
+
+    ch = _scored_phase(tmp_path)
+    ch.spec = SPEC.model_copy(update={"baselines": ("team-b",)})
+    phase = ch.open_phase()
+    board = ch.board(phase)
+    (b,) = [r for r in board.rows if r.team == "team-b"]
+    assert b.rank_range is None  # a reference row: out of the ranks
+    release(ch, phase, tmp_path / "pub", who="org", why="results day")
+    page = (tmp_path / "pub" / "index.html").read_text()
+    assert "<title>page-ci: open results</title>" in page
+    assert 'data-team="team-b" class="muted"' in page and ">reference<" in page
+    for column in ("Task Succ. %", "Model Verif. %"):  # Table IV's columns
+        assert column in page, column
+    assert "missing: the submission names no resource disclosure" in page

@@ -55,6 +55,7 @@ from schemas._events import (
     parse_event,
 )
 from schemas._files import (
+    EVENT_MEANINGS,
     TASK_MODEL_VERSION,
     WORLD_MODEL_VERSION,
     Affordance,
@@ -74,9 +75,12 @@ from schemas._files import (
 from schemas._generate import JSON_DIR, TARGETS
 from schemas._io import (
     IGNORED,
+    VALUE_SYNONYMS,
     FileProblems,
     Problem,
+    Records,
     ignored_note,
+    left_out_lines,
     load_json,
     model_at,
     parse_episode_log,
@@ -179,6 +183,9 @@ __all__ = [
     "Preflight",
     "PretrainedModel",
     "Problem",
+    "Records",
+    "VALUE_SYNONYMS",
+    "EVENT_MEANINGS",
     "Progress",
     "Quota",
     "QuotaView",
@@ -211,6 +218,7 @@ __all__ = [
     "describe",
     "event_line",
     "ignored_note",
+    "left_out_lines",
     "load_json",
     "model_at",
     "parse_episode_log",

@@ -217,6 +217,21 @@ LogEvent = Literal[
     "note",
 ]
 
+#: What each ``LogEvent`` says, one line each (``eagc check-files`` lists them for a value
+#: that is not ours). Only ``exception_detected`` is graded; the others are for the reader.
+EVENT_MEANINGS: dict[str, str] = {
+    "observation": "what the agent saw; not graded",
+    "action": "an action the agent took; not graded",
+    "plan": "the plan the agent made; not graded",
+    "replan": "the plan changed, e.g. after an exception; not graded",
+    "model_update": "the agent changed its world or task model; not graded",
+    "exception_detected": "the agent noticed an exception and names its "
+                          "exception_type; graded: the detection and its step",
+    "stage": "a stage begins; the record's stage names it; not graded",
+    "attempt": "an attempt at the task or a subgoal begins; not graded",
+    "note": "anything else worth reading; not graded",
+}
+
 ExceptionType = Literal[
     "door_lock",
     "object_relocation",

@@ -21,7 +21,7 @@ from typing import Any, TypeVar, Union, get_args, get_origin
 from pydantic import BaseModel, ValidationError
 
 from schemas._errors import SchemaError
-from schemas._files import LogRecord
+from schemas._files import EVENT_MEANINGS, LogRecord
 
 M = TypeVar("M", bound=BaseModel)
 
@@ -40,6 +40,53 @@ LIKELY_NAMES: dict[str, tuple[str, ...]] = {
     "rooms": ("from", "to", "between"),
     "category": ("class", "label", "type", "name"),
 }
+
+#: Values a team is likely to write for one of ours, by field (their value → ours): only
+#: words that mean the same thing (a value not here gets the list of ours, never a guess
+#: by spelling: ``execution_start`` is no ``exception_detected``).
+VALUE_SYNONYMS: dict[str, dict[str, str]] = {
+    "event": {
+        "perception": "observation", "observe": "observation", "observed": "observation",
+        "sensing": "observation",
+        "act": "action", "action_taken": "action", "execute_action": "action",
+        "planning": "plan", "plan_created": "plan", "new_plan": "plan",
+        "replanning": "replan", "plan_changed": "replan", "plan_update": "replan",
+        "world_model_update": "model_update", "model_updated": "model_update",
+        "belief_update": "model_update", "map_update": "model_update",
+        "exception": "exception_detected", "execution_exception": "exception_detected",
+        "exception_detection": "exception_detected", "detected_exception":
+            "exception_detected", "exception_found": "exception_detected",
+        "execution_start": "stage", "exploration_start": "stage", "planning_start": "stage",
+        "stage_start": "stage", "stage_begin": "stage", "stage_change": "stage",
+        "new_stage": "stage",
+        "retry": "attempt", "attempt_start": "attempt",
+        "comment": "note", "info": "note", "message": "note", "log": "note",
+    },
+    "exception_type": {
+        "locked_door": "door_lock", "door_locked": "door_lock",
+        "object_relocated": "object_relocation", "object_moved": "object_relocation",
+        "relocation": "object_relocation",
+        "container_locked": "container_unavailable",
+        "target_relocated": "target_moved",
+    },
+}
+
+
+def value_hint(field: str, value: str, choices: Sequence[str]) -> str:
+    """What a bad ``value`` of ``field`` gets in the report: ours where ``VALUE_SYNONYMS``
+    has it (with its meaning for an event), else the values we take; "" for a field
+    the table does not cover."""
+    table = VALUE_SYNONYMS.get(field)
+    if table is None:
+        return ""
+    ours = table.get(value) or table.get(value.strip().lower())
+    if ours is not None and ours in choices:
+        meaning = f" ({EVENT_MEANINGS[ours]})" if field == "event" else ""
+        how = " with its stage named in 'stage'" if ours == "stage" else ""
+        return f"got {value!r}, not ours: write {ours!r}{how}{meaning}"
+    return (f"got {value!r}, not one of ours ({', '.join(choices)}"
+            + ("; `eagc check-files` lists what each means" if field == "event" else "")
+            + ")")
 
 
 @dataclass(frozen=True)
@@ -222,8 +269,12 @@ def problems_of(err: ValidationError, doc: Any, model: type[BaseModel],
                 msg += f" (the file has {hint[0]!r}: did you mean {loc[-1]!r}?)"
         elif e["type"] in ("literal_error", "enum") and isinstance(e.get("input"), str):
             choices = _quoted(str(e.get("ctx", {}).get("expected", "")))
+            field = _names(model_at(model, loc[:-1])[0]).get(str(loc[-1]), str(loc[-1]))
+            told = value_hint(field, e["input"], choices)
             hint = difflib.get_close_matches(e["input"], choices, n=1, cutoff=0.6)
-            if hint and len(choices) > 1:
+            if told:
+                msg = told
+            elif hint and len(choices) > 1:
                 msg += f"; got {e['input']!r}: did you mean {hint[0]!r}?"
         ungraded = ungraded_at(model, loc) is not None
         if ungraded:
@@ -375,14 +426,47 @@ def _validate(doc: Any, model: type[M], prefix: tuple[Any, ...] = ()
     return obj, []
 
 
+class Records(list[M]):
+    """``parse_jsonl``'s records, and what it left out: a record that fails is left out
+    and reported by its line (``left_out``: the report, ``problem_lines``), the rest kept.
+
+    Attributes:
+        lines: the file's non-blank lines.
+        left_lines: the numbers of the lines left out, in file order.
+        left_out: the report of what they held that fails, by line and value.
+        left_ignored: the keys of the left-out lines that no field reads (``line N: key``).
+        numbers: the line of each kept record, in order.
+    """
+
+    lines: int = 0
+    left_lines: tuple[int, ...] = ()
+    left_out: tuple[str, ...] = ()
+    left_ignored: tuple[str, ...] = ()
+    numbers: tuple[int, ...] = ()
+
+
+def _line_of(key: str) -> int:
+    head = key.partition(": ")[0].split()
+    return int(head[1]) if len(head) == 2 and head[1].isdigit() else 0
+
+
 def ignored_fields(parsed: Any) -> tuple[str, ...]:
     """The paths of the keys a parsed file held that no field reads (``parse_json``'s
-    model, or ``parse_jsonl``'s records: ``line N: key``), in file order."""
+    model, or ``parse_jsonl``'s records, kept or left out: ``line N: key``), in file
+    order."""
     if isinstance(parsed, BaseModel):
         return tuple(getattr(parsed, "_ignored", ()) or ())
     if isinstance(parsed, list | tuple):
-        return tuple(k for rec in parsed for k in ignored_fields(rec))
+        keys = [k for rec in parsed for k in ignored_fields(rec)]
+        keys += getattr(parsed, "left_ignored", ())
+        return tuple(sorted(keys, key=_line_of))
     return ()
+
+
+def left_out_lines(parsed: Any) -> tuple[str, ...]:
+    """The report of the records a JSON-lines file held that were left out (``Records``):
+    each by its line, with the value that failed."""
+    return tuple(getattr(parsed, "left_out", ()) or ())
 
 
 def unreadable_fields(parsed: Any) -> tuple[str, ...]:
@@ -400,10 +484,17 @@ def ignored_note(name: str, parsed: Any, limit: int = 12) -> str | None:
     Keys are gathered like ``problem_lines``' (``objects.*.name``), at most ``limit``."""
     keys = ignored_fields(parsed)
     bad = unreadable_fields(parsed)
-    if not keys and not bad:
+    gone = left_out_lines(parsed)
+    if not keys and not bad and not gone:
         return None
     unread = ("; unreadable, not graded, left out: " + "; ".join(bad[:limit])
               + (f"; … ({len(bad) - limit} more)" if len(bad) > limit else "")) if bad else ""
+    if gone:
+        n, total = len(parsed.left_lines), parsed.lines
+        unread = (f"; {n} of {total} line{'s' * (total > 1)} left out, not graded (the "
+                  "rest is): " + "; ".join(gone[:limit])
+                  + (f"; … ({len(gone) - limit} more)" if len(gone) > limit else "")
+                  + unread)
     if not keys:
         return f"{name}: {unread.removeprefix('; ')}"
     found = []
@@ -445,51 +536,84 @@ def load_json(path: Path | str, model: type[M]) -> M:
 def parse_jsonl(
     # A TypeVar-typed parameter cannot have a default in mypy (python/mypy#3737): LogRecord
     # is an M for every call that leaves ``model`` out.
-    data: bytes | str, model: type[M] = LogRecord, *, source: str  # type: ignore[assignment]
-) -> list[M]:
-    """Parse JSON lines; every bad line is reported by its number, none is silently dropped."""
+    data: bytes | str, model: type[M] = LogRecord, *,  # type: ignore[assignment]
+    source: str, per_record: bool = False
+) -> Records[M]:
+    """Parse JSON lines; every bad line is reported by its number, none is silently dropped.
+
+    ``per_record``: a line that is not JSON or not a valid record is left out and reported
+    (``Records.left_out``), the rest kept; only a file with no valid record at all (none
+    of its lines JSON, or none a record) is refused (``FileProblems``). Otherwise any bad
+    line refuses the file."""
     text = data.decode("utf-8", errors="replace") if isinstance(data, bytes) else data
-    records: list[M] = []
+    records: Records[M] = Records()
+    numbers: list[int] = []
     problems: list[Problem] = []
+    left: list[int] = []
+    ignored: list[str] = []
+    unknown: list[Problem] = []
+    lines = 0
     for no, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
             continue
+        lines += 1
         try:
             doc = json.loads(line)
         except json.JSONDecodeError as e:
             problems.append(Problem(("line", no), f"not valid JSON: {e}", whole=True))
+            left.append(no)
             continue
         rec, bad = _validate(doc, model, ("line", no))
-        problems += bad
         if rec is not None:
             records.append(rec)
-    if problems:
-        raise FileProblems(source, problems, model)
+            numbers.append(no)
+            continue
+        left.append(no)
+        problems += [p for p in bad if not p.unknown]
+        unknown += [p for p in bad if p.unknown]
+        ignored += [f"line {no}: {_path(p.loc[2:])}" for p in bad if p.unknown]
+    if problems and (not per_record or not records):
+        raise FileProblems(source, [*unknown, *problems], model)
+    records.lines, records.numbers = lines, tuple(numbers)
+    records.left_lines, records.left_ignored = tuple(left), tuple(ignored)
+    records.left_out = tuple(problem_lines(problems))
     return records
 
 
-def parse_episode_log(data: bytes | str, *, source: str = "episode_log.jsonl") -> list[LogRecord]:
-    """Parse ``episode_log.jsonl`` and check what makes a log valid (SchemaError if not).
+def parse_episode_log(data: bytes | str, *, source: str = "episode_log.jsonl"
+                      ) -> Records[LogRecord]:
+    """Parse ``episode_log.jsonl``, graded per record (SchemaError only for a file that
+    says nothing: empty, or no line a valid record).
 
-    A valid log has at least one record (an empty file says nothing: a failed check), one
-    ``LogRecord`` per line (blank lines are ignored), records in time order (``step``
-    never decreases from one record to the next) and an ``exception_type`` on every
-    ``exception_detected`` record.
+    A valid log has at least one record, one ``LogRecord`` per line (blank lines are
+    ignored), records in time order (``step`` never decreases from one record to the
+    next) and an ``exception_type`` on every ``exception_detected`` record. A line that
+    is not one (not JSON, an invalid field or value, a step before the record above it)
+    is left out and reported by its line and value (``Records.left_out``); the rest is
+    graded.
     """
-    records = parse_jsonl(data, LogRecord, source=source)
-    if not records:
+    parsed = parse_jsonl(data, LogRecord, source=source, per_record=True)
+    if not parsed.lines:
         raise FileProblems(source, [Problem((), "empty: a log holds at least one record "
                                             "(e.g. a 'stage' record as each stage begins)",
                                             whole=True)],
                            LogRecord)
-    text = data.decode("utf-8", errors="replace") if isinstance(data, bytes) else data
-    numbers = [no for no, line in enumerate(text.splitlines(), start=1) if line.strip()]
-    problems = [
-        Problem(("line", no, "step"),
-                f"{rec.step} comes after step {prev.step}: records are in time order")
-        for no, prev, rec in zip(numbers[1:], records, records[1:], strict=False)
-        if rec.step < prev.step
-    ]
-    if problems:
-        raise FileProblems(source, problems, LogRecord)
-    return records
+    kept: Records[LogRecord] = Records()
+    numbers: list[int] = []
+    late: list[Problem] = []
+    for no, rec in zip(parsed.numbers, parsed, strict=True):
+        if kept and rec.step < kept[-1].step:
+            late.append(Problem(("line", no, "step"), f"{rec.step} comes after step "
+                                f"{kept[-1].step}: records are in time order"))
+            continue
+        kept.append(rec)
+        numbers.append(no)
+    if not late:
+        return parsed
+    kept.lines, kept.numbers = parsed.lines, tuple(numbers)
+    kept.left_lines = tuple(sorted({*parsed.left_lines, *(p.loc[1] for p in late)}))
+    kept.left_out = (*parsed.left_out, *problem_lines(late))
+    held = {id(rec) for rec in kept}
+    ignored = {k for rec in parsed if id(rec) not in held for k in ignored_fields(rec)}
+    kept.left_ignored = (*parsed.left_ignored, *sorted(ignored, key=_line_of))
+    return kept

@@ -27,9 +27,9 @@ from orchestrator._errors import UsageError
 from orchestrator.cli.common import ExitCode, _suggest, check_track
 
 CHECK_FILES_CODES = ("Exit codes: 0 every file validates (keys nothing grades are listed, "
-                     "not errors); 1 a file (or the disclosure) does not validate or a "
-                     "required one is missing; 2 usage error (no such folder, file, track "
-                     "or stage).")
+                     "not errors); 1 a file (or the disclosure) does not validate, a log "
+                     "has lines left out (the host grades the rest), or a required file is "
+                     "missing; 2 usage error (no such folder, file, track or stage).")
 
 out = Console(highlight=False, soft_wrap=True, markup=False)
 
@@ -53,12 +53,30 @@ def schema_of(top: type[BaseModel], model: type[BaseModel]) -> str:
     name = next((n for n, t in TARGETS.items() if t is top), None)
     if name is None:
         return ""
-    path = JSON_DIR / f"{name}.json"
-    try:
-        shown = path.relative_to(Path.cwd())
-    except ValueError:
-        shown = path
-    return f"{shown}" + ("" if model is top else f"#/$defs/{model.__name__}")
+    # by its path in the repository, wherever eagc is installed or run from
+    shown = f"{JSON_DIR.parent.name}/{JSON_DIR.name}/{name}.json"
+    return shown + ("" if model is top else f"#/$defs/{model.__name__}")
+
+
+def _spans(numbers: tuple[int, ...]) -> str:
+    """``1-3, 7`` for 1, 2, 3, 7 (sorted numbers)."""
+    runs: list[list[int]] = []
+    for i in numbers:
+        if runs and runs[-1][1] == i - 1:
+            runs[-1][1] = i
+        else:
+            runs.append([i, i])
+    return ", ".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
+
+
+def meaning_lines(left_out: list[str]) -> list[str]:
+    """The events we take, one line each with its meaning, when a left-out line held an
+    event value with no synonym of ours (``schemas.VALUE_SYNONYMS``)."""
+    from schemas import EVENT_MEANINGS
+
+    if not any(": event" in x and "not one of ours" in x for x in left_out):
+        return []
+    return ["the events a log takes:", *(f"  {e}: {m}" for e, m in EVENT_MEANINGS.items())]
 
 
 def failing_models(top: type[BaseModel], data: bytes, jsonl: bool
@@ -90,7 +108,7 @@ def check_folder(folder: Path, track: str, stage: str | None = None) -> tuple[bo
     """Checks ``folder`` as the host checks ``/output``; returns (ok, report lines)."""
     from orchestrator._episode.collect import collect
     from orchestrator._results.score_card import file_lines
-    from schemas import Limits, LogRecord
+    from schemas import IGNORED, Limits, LogRecord, ignored_note, parse_episode_log
 
     def wrapped(text: str, limit: int, indent: str = "") -> list[str]:
         return textwrap.wrap(text, limit, initial_indent=indent,
@@ -116,6 +134,22 @@ def check_folder(folder: Path, track: str, stage: str | None = None) -> tuple[bo
     ok = True
     for c in (*checks, *got.refused):
         rule = plugin.files.get(c.name)
+        log = (parse_episode_log(got.files[c.name], source=c.name)
+               if c.ok and rule is not None and rule.jsonl else None)
+        if log is not None and log.left_lines:
+            ok = False
+            n = len(log.left_lines)
+            lines += wrapped(f"{c.name}: {n} of {log.lines} line{'s' * (log.lines > 1)} "
+                             f"left out, not graded (line{'s' * (n > 1)} "
+                             f"{_spans(log.left_lines)}); the rest is graded", limit)
+            ignored = ignored_note(c.name, log)
+            keys = [] if ignored is None or f"{IGNORED}: " not in ignored else [
+                ignored.removeprefix(f"{c.name}: ").split("; ")[0]]
+            for line in [*keys, *log.left_out]:
+                lines += wrapped(line, limit, "  ")
+            for line in meaning_lines(list(log.left_out)):
+                lines += wrapped(line, limit, "  ")
+            continue
         if c.ok:
             lines.append(f"{c.name}: ok")
             for line in file_lines(c.reason):
@@ -127,8 +161,17 @@ def check_folder(folder: Path, track: str, stage: str | None = None) -> tuple[bo
             continue
         ok = False
         problems = file_lines(c.reason) or ["refused"]
-        lines.append(f"{c.name}: FAILS ({len(problems)} line{'s' * (len(problems) > 1)})")
+        data = got.files.get(c.name, b"")
+        count = sum(1 for x in data.decode("utf-8", "replace").splitlines() if x.strip())
+        if rule is not None and rule.jsonl and c.name in got.files:
+            # refused whole: no line holds a valid record
+            lines.append(f"{c.name}: FAILS (" + (f"all {count} lines" if count > 1 else
+                                                 "its one line" if count else "empty") + ")")
+        else:
+            lines.append(f"{c.name}: FAILS")
         for line in problems:
+            lines += wrapped(line, limit, "  ")
+        for line in meaning_lines(problems):
             lines += wrapped(line, limit, "  ")
         if rule is None or c.size is None:
             continue
@@ -144,7 +187,8 @@ def check_folder(folder: Path, track: str, stage: str | None = None) -> tuple[bo
                 lines += wrapped(f"its schema: {where}", limit, "  ")
     for name in sorted(set(got.files) - set(plugin.files)):
         lines.append(f"{name}: not a file of {track} (not read)")
-    lines.append("every file validates" if ok else "a file does not validate")
+    lines.append("every file validates" if ok else "a file does not validate (or lines of "
+                 "a log were left out)")
     return ok, lines
 
 

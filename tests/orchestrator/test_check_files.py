@@ -127,3 +127,41 @@ def _team_lines(team: Any) -> list[str]:
                  "rank_range": None, "rank": 1, "episodes": 1, "planned": 1}.items():
         object.__setattr__(row, k, v)
     return TeamReport("c", "track1", "local", "t", row, 1, [team]).to_text(80).splitlines()
+
+
+def test_a_log_line_with_a_bad_value_is_left_out_and_named(tmp_path: Path) -> None:
+    log = ('{"step": 0, "stage": "exploration", "event": "stage", "pose": [0, 0]}\n'
+           '{"step": 2, "event_type": "perception", "seen": [1]}\n'
+           '{"step": 4, "event_type": "recovery_failed"}\n'
+           '{"step": 5, "event_type": "execution_exception", "exception_type": "door_lock"}\n'
+           '{"step": 6, "event": "note"}\n')
+    r = _eagc(str(_folder(tmp_path, log=log)), "--track", "track1")
+    assert r.exit_code == 1, r.output
+    text = r.stdout
+    assert "episode_log.jsonl: 3 of 5 lines left out, not graded (lines 2-4)" in text
+    assert "not graded, ignored: line 1: pose, line 2: seen" in text
+    flat = " ".join(text.split())
+    assert "line 2: event_type: got 'perception', not ours: write 'observation'" in flat
+    assert "line 4: event_type: got 'execution_exception', not ours: write " \
+           "'exception_detected'" in flat
+    assert "line 3: event_type: got 'recovery_failed', not one of ours" in flat
+    assert "did you mean" not in flat
+    assert "exception_detected: the agent noticed an exception" in flat  # meanings listed
+    assert all(len(line) <= 80 for line in text.splitlines())
+
+
+def test_a_log_with_no_valid_record_fails_counting_its_lines(tmp_path: Path) -> None:
+    log = "".join(json.dumps({"step": i, "event_type": "perception", "x": i}) + "\n"
+                  for i in range(10))
+    r = _eagc(str(_folder(tmp_path, log=log)), "--track", "track1")
+    assert r.exit_code == 1, r.output
+    assert "episode_log.jsonl: FAILS (all 10 lines)" in r.stdout
+    assert "not graded, ignored: lines 1-10: x" in r.stdout
+    assert "its schema: schemas/json/episode_log_record.json" in r.stdout
+
+
+def test_the_schema_is_named_by_its_repository_path(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    r = _eagc(str(_folder(tmp_path, {"objects": [{"category": "cup"}]})), "--track", "track1")
+    assert "its schema: schemas/json/world_model.json#/$defs/ObjectEntry" in r.stdout

@@ -287,6 +287,44 @@ def _model_ids(model: WorldModel) -> tuple[set[int], set[int]]:
     return {i for i in ids if i is not None}, {r for r in rooms if r is not None and r >= 0}
 
 
+def named_ids(model: WorldModel) -> tuple[list[str], list[str], int, int]:
+    """The ids and the room ids of ``model`` that are names (``"door_2"``,
+    ``"living_room_3"``), not the numbers observations show, in file order; and how many
+    distinct ids and room ids it names in all."""
+    def names(values: Sequence[Any]) -> list[str]:
+        return list(dict.fromkeys(str(v) for v in values
+                                  if v is not None and _as_id(v) is None))
+
+    entries = [e.id for e in (*model.doors, *model.containers, *model.objects)]
+    entries += [a.tool for a in model.affordances]
+    entries += [c.door for c in model.connections if c.door is not None]
+    rooms = [r.id for r in model.rooms] + [v for c in model.connections for v in c.rooms]
+    rooms += [e.room for e in (*model.containers, *model.objects)]
+    ids, room_ids = _model_ids(model)
+    bad, bad_rooms = names(entries), names(rooms)
+    return bad, bad_rooms, len(ids) + len(bad), len(room_ids) + len(bad_rooms)
+
+
+def named_id_notes(model: WorldModel | None, *, split_known: bool = True) -> list[str]:
+    """A note on each kind of id of ``model`` that is a name, not a number the host gave:
+    such an id matches nothing, and the entry (or room) earns nothing. ``split_known``
+    False (``eagc check-files``): said for the splits that show ids (all but vision)."""
+    if model is None:
+        return []
+    bad, bad_rooms, total, total_rooms = named_ids(model)
+    where = "" if split_known else " (on every split but vision, whose ids are your own)"
+    notes = []
+    for what, names, n, graded in (
+            ("ids", bad, total, "entries are"),
+            ("room ids", bad_rooms, total_rooms, "the room graph and inventory are")):
+        if names:
+            notes.append(f"world model: {len(names)} of {n} {what} are names, not the "
+                         f"numbers observations show ({', '.join(names[:8])}"
+                         f"{', …' if len(names) > 8 else ''}): they match nothing{where}; "
+                         f"{graded} graded by the shown ids")
+    return notes
+
+
 def unseen_notes(model: WorldModel | None, shown: Shown | None, step: int) -> list[str]:
     """Ids and room ids of the graded model that match nothing the agent had been shown
     when exploration ended (the audit's ``world_model_flags``): the score finds nothing
@@ -344,6 +382,7 @@ def credit_notes(data: ScoringInput[Track1Scenario, Track1Outcome], o: Track1Out
     if own_ids(data.scenario):  # vision: nothing was shown by id; entries pair by position
         notes += unmatched_notes(graded)
     else:
+        notes += named_id_notes(graded)
         notes += unseen_notes(graded, shown_from(o.shown),
                               o.stage_steps.get(EXPLORATION, o.steps))
     notes += log_step_notes(o, log)

@@ -25,7 +25,7 @@ from typing import Any, ClassVar
 from plugins._audit import EpisodeChecks
 from plugins._base import Scenario, ScoringInput, TrackPlugin
 from plugins._errors import PluginError
-from plugins._files import EPISODE_LOG, FileRule
+from plugins._files import EPISODE_LOG, FileRule, ParsedFile, check_files
 from plugins._leaderboard import Column
 from plugins._views import EpisodeMap, RecordedEpisode, TruthReport
 from plugins.track1 import _score, _view, _vocabulary
@@ -34,7 +34,7 @@ from plugins.track1._pictures import preview, trajectory_png
 from plugins.track1._scenario import build_scenario
 from plugins.track1._types import Track1Outcome, Track1Scenario
 from plugins.track1.audit import Track1Checks
-from schemas import EpisodeResult, ScoreCard, WorldModel
+from schemas import EpisodeResult, FileCheck, ScoreCard, WorldModel
 from simhost import StageSpec, TrackEpisode
 
 
@@ -104,6 +104,22 @@ class Track1(TrackPlugin[Track1Scenario, Track1Outcome]):
 
     def make_episode(self, scenario: Scenario[Track1Scenario]) -> TrackEpisode:
         return Track1Episode(scenario, self.hidden(scenario))
+
+    def verify_files(self, files: Mapping[str, bytes]
+                     ) -> tuple[dict[str, ParsedFile], list[FileCheck]]:
+        """The default check (``plugins._files.check_files``), and on a world model that
+        passed, a line for each kind of id that is a name, not a number the host gave
+        (``_score.named_id_notes``: the score card says the same)."""
+        parsed, checks = check_files(self.files, files)
+        model = parsed.get("world_model.json")
+        if not isinstance(model, WorldModel):
+            return parsed, checks
+        notes = [n.removeprefix("world model: ")
+                 for n in _score.named_id_notes(model, split_known=False)]
+        return parsed, [c.model_copy(update={"reason": "\n".join(
+                            x for x in (c.reason, *notes) if x)})
+                        if c.name == "world_model.json" and c.ok and notes else c
+                        for c in checks]
 
     def score(self, data: ScoringInput[Track1Scenario, Track1Outcome]) -> ScoreCard:
         return _score.score(data, self.name)

@@ -134,3 +134,40 @@ def test_the_protocol_page_names_the_vocabulary_the_scores_use() -> None:
         assert f"| `{family}` |" in text
     assert "`drawer_opening within`" in text and "`button_travel >=`" in text
     assert "| `obs_force` | float32 T+1 × 6 |" in text and "`wipe` (dirty → clean)" in text
+
+
+#: A model in the shapes of a team that names its ids (our own fixture, issue 35): names
+#: where the host gave numbers, beside numbers that match nothing shown.
+NAMED = {
+    "rooms": [{"id": "living_room_3"}, {"id": "kitchen_1"}, {"id": 0}],
+    "connections": [{"rooms": ["living_room_3", "kitchen_1"], "door": "door_2"}],
+    "doors": [{"id": "door_2", "state": "closed"}, {"id": 2, "state": "open"}],
+    "objects": [{"id": "mug_1", "category": "mug", "room": "kitchen_1"},
+                {"id": 999, "category": "apple", "room": 0}],
+}
+
+
+def test_ids_that_are_names_and_ids_that_match_nothing_each_get_a_note() -> None:
+    o = outcome(stage_steps={"exploration": 50}).model_copy(update={"shown": _shown(
+        {i: 1 for i in (1, 2, 3, 10, 11, 20, 21, 22, 30, 31)}, {0: 0, 1: 5, 2: 9})})
+    notes = _card(o, model=WorldModel.model_validate(NAMED)).notes
+    assert ("world model: 2 of 4 ids are names, not the numbers observations show "
+            "(door_2, mug_1): they match nothing; entries are graded by the shown ids"
+            in notes), notes
+    assert any(n.startswith("world model: 2 of 3 room ids are names, not the numbers "
+                            "observations show (living_room_3, kitchen_1)") for n in notes)
+    assert any("ids match an id the agent was shown" in n and "999" in n for n in notes)
+    assert not any("are names" in n for n in _card(o, model=perfect_model()).notes)
+
+
+def test_check_files_names_the_ids_that_are_names() -> None:
+    _, checks = load_track("track1").verify_files({
+        "world_model.json": json.dumps(NAMED).encode(),
+        "episode_log.jsonl": b'{"step": 0, "event": "stage"}\n'})
+    (check,) = [c for c in checks if c.name == "world_model.json"]
+    assert check.ok
+    lines = check.reason.splitlines()
+    assert any(x.startswith("2 of 4 ids are names, not the numbers observations show "
+                            "(door_2, mug_1): they match nothing (on every split but "
+                            "vision") for x in lines), lines
+    assert any(x.startswith("2 of 3 room ids are names") for x in lines)

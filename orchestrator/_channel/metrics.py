@@ -17,27 +17,14 @@ runners report. Series::
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
+from orchestrator._channel.storage import disk_bytes
 from schemas import SubmissionState
 
 S = SubmissionState
-
-
-def storage_bytes(folder: Path) -> int:
-    """The bytes of the files under ``folder`` (the registry's blobs and manifests)."""
-    total = 0
-    for root, _, files in os.walk(folder):
-        for name in files:
-            try:
-                total += os.lstat(os.path.join(root, name)).st_size
-            except OSError:
-                continue
-    return total
 
 
 class ChannelMetrics:
@@ -109,7 +96,7 @@ class _Collector:
                                   value=refunds)
         at, size = self._storage
         if time.monotonic() - at > 30:  # a walk of the storage, at most twice a minute
-            size = storage_bytes(self.channel.data / "registry" / "storage")
+            size = disk_bytes(self.channel.data / "registry" / "storage")
             self._storage = (time.monotonic(), size)
         yield GaugeMetricFamily("eagc_channel_registry_storage_bytes",
                                 "The registry's storage on disk.", value=size)

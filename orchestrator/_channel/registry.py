@@ -280,19 +280,3 @@ class RegistryProcess:
                                 f"{repository}:{reference}")
         digest = r.headers.get("Docker-Content-Digest")
         return str(digest) if digest else None
-
-    def image_size(self, repository: str, digest: str) -> int | None:
-        """The compressed size of an image (its manifest's layers and config), in bytes."""
-        import requests
-
-        token = self.keys.token(RUNNER, grant(RUNNER, [f"repository:{repository}:pull"]),
-                                ttl_s=60)["token"]
-        r = requests.get(f"http://{self.address}/v2/{repository}/manifests/{digest}",
-                         headers={"Authorization": f"Bearer {token}", "Accept":
-                                  "application/vnd.docker.distribution.manifest.v2+json, "
-                                  "application/vnd.oci.image.manifest.v1+json"}, timeout=10)
-        if r.status_code != 200:
-            return None
-        doc = r.json()
-        parts = [doc.get("config") or {}, *(doc.get("layers") or [])]
-        return sum(int(p.get("size") or 0) for p in parts)

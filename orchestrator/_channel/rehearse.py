@@ -67,6 +67,7 @@ class Rehearsal:
         self.url = ""
         self.tokens: dict[str, str] = {}
         self.refs: dict[str, str] = {}
+        self._channel: Any = None
 
     # ------------------------------------------------------------------ the channel
     def start(self) -> None:
@@ -103,9 +104,13 @@ class Rehearsal:
             return False
 
     def channel(self) -> Any:
+        """The channel's data as the organizer's commands open it (once: one database
+        connection for the whole rehearsal)."""
         from orchestrator._channel.serve import open_channel
 
-        return open_channel(self.data)
+        if self._channel is None:
+            self._channel = open_channel(self.data)
+        return self._channel
 
     def _wait(self, done: Callable[[], Any], timeout_s: float, why: str) -> Any:
         deadline = time.monotonic() + timeout_s

@@ -13,6 +13,7 @@ without a manifest.
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import sqlite3
 import subprocess
@@ -81,7 +82,16 @@ class Collected:
 
 
 def disk_bytes(folder: Path) -> int:
-    return sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
+    """The bytes of the files under ``folder`` (links not followed; a file that goes while
+    it is walked is skipped)."""
+    total = 0
+    for root, _, files in os.walk(folder):
+        for name in files:
+            try:
+                total += os.lstat(os.path.join(root, name)).st_size
+            except OSError:
+                continue
+    return total
 
 
 def collect(storage: Path, config: Path, keep: set[tuple[str, str]]) -> Collected:

@@ -26,12 +26,17 @@ as a ``gymnasium.Env``-shaped object, for a policy written against the offline
 environments (``simhost.client._gym_client``; loaded on first use, so that importing this
 module never imports gymnasium); ``OFFLINE_DTYPES`` are the offline dtypes it restores
 where the wire has none.
+
+``CONFUSABLE`` and ``CONFUSABLE_COLOURS`` are Track 1's look-alike tables: the categories
+and colours its detector may report instead of the true ones, when a thing is seen from
+afar (``schemas/PROTOCOL.md``, Track 1 vocabulary).
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from simhost.client._lookalikes import CONFUSABLE, CONFUSABLE_COLOURS
 from simhost.client._outputs import OutputFileError, OutputFiles
 from simhost.client._remote import DEFAULT_TIMEOUT_S, HostError, HostLost, RemoteEnv, TimeStep
 
@@ -45,6 +50,8 @@ if TYPE_CHECKING:
     )
 
 __all__ = [
+    "CONFUSABLE",
+    "CONFUSABLE_COLOURS",
     "DEFAULT_TIMEOUT_S",
     "OFFLINE_DTYPES",
     "GymClientError",

@@ -11,6 +11,9 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict
 
+from simhost.client._lookalikes import CONFUSABLE as CONFUSABLE
+from simhost.client._lookalikes import CONFUSABLE_COLOURS as CONFUSABLE_COLOURS
+
 ROOM_TYPES: tuple[str, ...] = (
     "kitchen",
     "living_room",
@@ -322,48 +325,6 @@ ROOM_FLOOR_RGBA: dict[str, tuple[float, float, float, float]] = {
     "hallway": (0.82, 0.82, 0.82, 1.0),
     "storage": (0.70, 0.70, 0.66, 1.0),
 }
-
-CONFUSABLE: dict[str, tuple[str, ...]] = {
-    "table": ("desk",),
-    "desk": ("table",),
-    "counter": ("table",),
-    "bed": ("sofa",),
-    "sofa": ("bed",),
-    "shelf": ("table",),
-    "cabinet": ("drawer",),
-    "drawer": ("cabinet",),
-    "fridge": ("cabinet",),
-    "bin": ("drawer",),
-    "mug": ("bowl", "bottle"),
-    "bowl": ("mug", "plate"),
-    "plate": ("bowl",),
-    "book": ("towel",),
-    "towel": ("book",),
-    "bottle": ("mug",),
-    "apple": ("bread",),
-    "bread": ("apple",),
-    "plant": ("bottle",),
-    "sponge": ("cloth",),
-    "cloth": ("sponge",),
-    "knife": ("scissors",),
-    "scissors": ("knife",),
-    "watering_can": ("jug",),
-    "jug": ("watering_can",),
-}
-"""Look-alike categories a detector may report instead (always of the same kind); doors are
-never confused."""
-
-CONFUSABLE_COLOURS: dict[str, tuple[str, ...]] = {
-    "red": ("orange",),
-    "orange": ("red", "yellow"),
-    "yellow": ("orange", "white"),
-    "white": ("yellow",),
-    "blue": ("purple",),
-    "purple": ("blue",),
-    "green": ("yellow",),
-    "black": ("blue",),
-}
-"""Look-alike colours a detector may report instead."""
 
 MAX_IDS = 256
 """Instance ids are in ``[1, MAX_IDS)``; 0 is never an instance id."""

@@ -115,8 +115,9 @@ def _short(path: Path) -> str:
 
 
 def where_results(spec: Any, source: Path | None) -> list[str]:
-    """Where a campaign's results are, and how to see them again: one item a line, so
-    that the lines fit 80 columns unless a path alone is longer."""
+    """Where a campaign's results are, and how to see them again: one item a line, each
+    command's comment on a line of its own above it (``# …``, so that a command copies
+    whole), so that the lines fit 80 columns unless a path alone is longer."""
     from orchestrator._campaign.spec import campaign_dir, store_path
 
     name = _short(source) if source else "CAMPAIGN.yaml"
@@ -126,7 +127,10 @@ def where_results(spec: Any, source: Path | None) -> list[str]:
             "see again:",
             f"  eagc leaderboard {name}",
             f"  eagc status {name}",
-            f"  eagc leaderboard {name} --team NAME   (one team's episodes)"]
+            "  # one team's episodes",
+            f"  eagc leaderboard {name} --team NAME",
+            "  # as web pages: the episodes' timelines, frames and score cards",
+            f"  eagc report {name} --out report"]
 
 
 @campaign_app.command("run")

@@ -200,6 +200,17 @@ class SubmitRequest(_Model):
                                    "resource disclosure's text (YAML or JSON).")
 
 
+class FreezeRequest(_Model):
+    """``POST /api/v1/final/freeze``: freeze one of the team's submissions for the final,
+    with the report (and, when ``statement``, the open-source statement) it uploaded."""
+
+    submission: str = Field(max_length=64)
+    statement: bool = Field(default=False, description="Freeze the uploaded open-source "
+                            "statement too.")
+    phase: str | None = Field(default=None, max_length=64, description="The final phase "
+                              "(default: the challenge's phase of kind 'final').")
+
+
 class HistoryEntry(_Model):
     at: datetime
     state: SubmissionState

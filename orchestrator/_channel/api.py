@@ -17,6 +17,10 @@ as one that does not exist.
     GET  /calendar                          the calendar as a page
     GET  /api/v1/findings?phase=P           the team's audit findings and their rulings
     POST /api/v1/findings/{id}/appeal       appeal a ruling within the appeal window
+    PUT  /api/v1/final/files/{name}         a finalist's report or statement, to freeze
+    POST /api/v1/final/freeze               freeze a submission with the uploaded files
+    GET  /api/v1/final                      what the team has frozen, with its hashes
+    GET  /api/v1/final/key                  the manifest's public key (PEM, public)
     GET  /api/v1/quota                      what the team has left today, when it resets
     GET  /api/v1/board                      the open phase's board (teams' latest scored)
     POST /api/v1/runner/claim               runner: take a pre-flight or a run
@@ -32,8 +36,12 @@ as one that does not exist.
 from __future__ import annotations
 
 import base64
+import hashlib
 import hmac
 import logging
+import os
+from collections.abc import Callable
+from dataclasses import asdict
 from typing import Annotated, Any
 
 from fastapi import Depends, FastAPI, Header, HTTPException, Query, Request
@@ -47,11 +55,22 @@ from orchestrator._channel.db import ChannelError
 from orchestrator._channel.metrics import ChannelMetrics
 from orchestrator._channel.pages import calendar_page
 from orchestrator._channel.registry import RUNNER, grant
-from schemas import Claim, Outcome, Progress, QuotaView, SubmissionView, SubmitRequest, Work
+from schemas import (
+    Claim,
+    FreezeRequest,
+    Outcome,
+    Progress,
+    QuotaView,
+    SubmissionView,
+    SubmitRequest,
+    Work,
+)
 
 log = logging.getLogger("eagc.channel")
-#: Largest request body accepted (a disclosure is the largest thing a team sends).
+#: Largest request body accepted (a disclosure is the largest thing a team sends), but
+#: for the files of a freeze (``FILES``), up to the final's own cap.
 MAX_BODY = 256 * 1024
+FILES = "/api/v1/final/files/"
 
 
 def _bearer(authorization: str | None) -> str:
@@ -78,7 +97,16 @@ def _runner(request: Request, authorization: Annotated[str | None, Header()] = N
         raise HTTPException(401, "not the runner's token (<data>/runner.token)")
 
 
-_OVER = f"request body over {MAX_BODY // 1024} KiB"
+def body_limit(path: str) -> int:
+    """The largest body accepted on ``path``."""
+    from orchestrator._channel.final import MAX_FILE_BYTES
+
+    return MAX_FILE_BYTES if path.startswith(FILES) else MAX_BODY
+
+
+def _over(limit: int) -> str:
+    return (f"request body over {limit // 2**20} MiB" if limit >= 2**20 else
+            f"request body over {limit // 1024} KiB")
 
 
 class BodyCap:
@@ -88,7 +116,7 @@ class BodyCap:
     told the client left, and whatever it answers after is dropped. The refusal is
     recorded off the event loop."""
 
-    def __init__(self, app: Any, limit: int, record: Any) -> None:
+    def __init__(self, app: Any, limit: Callable[[str], int], record: Any) -> None:
         self.app, self.limit, self.record = app, limit, record
 
     async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
@@ -96,7 +124,8 @@ class BodyCap:
             await self.app(scope, receive, send)
             return
         length = dict(scope["headers"]).get(b"content-length")
-        if length is not None and (not length.isdigit() or int(length) > self.limit):
+        limit = self.limit(scope["path"])
+        if length is not None and (not length.isdigit() or int(length) > limit):
             await self._refuse(scope, receive, send)
             return
         seen = 0
@@ -109,7 +138,7 @@ class BodyCap:
             message = await receive()
             if message["type"] == "http.request":
                 seen += len(message.get("body", b""))
-                if seen > self.limit:
+                if seen > limit:
                     refused = True
                     scope["eagc.refused"] = True  # what the app answers next is not kept
                     await self._refuse(scope, receive, send)
@@ -126,13 +155,24 @@ class BodyCap:
         from starlette.concurrency import run_in_threadpool
 
         client = scope.get("client") or ("?", 0)
-        await run_in_threadpool(self.record, str(client[0]), scope["method"], scope["path"])
-        await JSONResponse({"detail": _OVER}, status_code=413,
+        over = _over(self.limit(scope["path"]))
+        await run_in_threadpool(self.record, str(client[0]), scope["method"], scope["path"],
+                                over)
+        await JSONResponse({"detail": over}, status_code=413,
                            headers={"Connection": "close"})(scope, receive, send)
 
 
 Team = Annotated[str, Depends(_team)]
 Runner = Annotated[None, Depends(_runner)]
+
+
+def manifest_pem(channel: Channel) -> str | None:
+    """The final's manifest key (PEM), made once when the challenge has a final phase."""
+    if not any(p.kind == "final" for p in channel.spec.phases):
+        return None
+    from orchestrator._channel.final import public_pem, signing_key
+
+    return public_pem(signing_key(channel.data / "keys")).decode("ascii")
 
 
 def create_app(channel: Channel) -> FastAPI:
@@ -172,10 +212,10 @@ def create_app(channel: Channel) -> FastAPI:
         return refuse(request, 422, f"malformed request: {where or 'body'}: "
                       f"{first.get('msg', 'invalid')}")
 
-    def too_large(client: str, method: str, path: str) -> None:
-        channel.db.record_refusal(client, method, path, 413, _OVER)
+    def too_large(client: str, method: str, path: str, why: str) -> None:
+        channel.db.record_refusal(client, method, path, 413, why)
 
-    app.add_middleware(BodyCap, limit=MAX_BODY, record=too_large)
+    app.add_middleware(BodyCap, limit=body_limit, record=too_large)
 
     @app.get("/api/v1/whoami")
     def whoami(who: Team) -> dict[str, Any]:
@@ -250,6 +290,58 @@ def create_app(channel: Channel) -> FastAPI:
         do_appeal(channel, finding, who, str(body.get("text", "")))
         return {"finding": str(finding), "state": "appealed: waits for a new ruling"}
 
+    @app.put(FILES + "{name}", status_code=201)
+    async def upload(name: str, request: Request, who: Team) -> dict[str, Any]:
+        """A finalist's technical report (``report.pdf``, ``report.md``) or open-source
+        statement (``statement.yaml``, ``statement.json``), kept until it freezes."""
+        from starlette.concurrency import run_in_threadpool
+        from starlette.requests import ClientDisconnect
+
+        from orchestrator._channel.final import UPLOADS, may_freeze, upload_folder
+
+        if name not in UPLOADS:
+            raise ChannelError(f"upload one of {', '.join(UPLOADS)}, not {name!r}", 404)
+        await run_in_threadpool(may_freeze, channel, who)
+        folder = upload_folder(channel, who)
+        folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+        part, digest, size = folder / f".{name}.part", hashlib.sha256(), 0
+        try:
+            with part.open("wb") as f:
+                async for chunk in request.stream():
+                    digest.update(chunk)
+                    size += len(chunk)
+                    f.write(chunk)
+        except ClientDisconnect:
+            part.unlink(missing_ok=True)
+            raise ChannelError(f"the upload of {name} was cut off", 400) from None
+        os.replace(part, folder / name)
+        return {"name": name, "bytes": size, "sha256": digest.hexdigest()}
+
+    @app.post("/api/v1/final/freeze")
+    def freeze(req: FreezeRequest, who: Team) -> dict[str, Any]:
+        """Freezes the team's submission with the files it uploaded (``final.freeze``)."""
+        from orchestrator._channel.final import freeze_uploaded
+
+        return asdict(freeze_uploaded(channel, who, req.submission, statement=req.statement,
+                                      phase=req.phase))
+
+    @app.get("/api/v1/final")
+    def frozen(who: Team) -> list[dict[str, Any]]:
+        """What the team has frozen in each final phase, with each file's SHA-256."""
+        from orchestrator._channel.final import frozen as frozen_in
+
+        return [asdict(f) for p in channel.spec.phases if p.kind == "final"
+                for f in frozen_in(channel, p.name) if f.team == who]
+
+    @app.get("/api/v1/final/key")
+    def manifest_key() -> Response:
+        """The public key that signs the final's manifest (PEM): public before the final,
+        so anyone can check the manifest once it is published."""
+        pem = manifest_pem(channel)
+        if pem is None:
+            raise ChannelError("this challenge has no final phase, so no manifest key", 404)
+        return Response(pem, media_type="application/x-pem-file")
+
     @app.post("/api/v1/submissions/{sid}/select")
     def select(sid: str, who: Team) -> SubmissionView:
         channel.select(sid, who)
@@ -275,7 +367,7 @@ def create_app(channel: Channel) -> FastAPI:
     def calendar() -> Response:
         from fastapi.responses import HTMLResponse
 
-        return HTMLResponse(calendar_page(channel, phases()), headers={
+        return HTMLResponse(calendar_page(channel, phases(), manifest_pem(channel)), headers={
             "Content-Security-Policy": "default-src 'none'; style-src 'unsafe-inline'; "
             "img-src data:; base-uri 'none'; frame-ancestors 'none'"})
 

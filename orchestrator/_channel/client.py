@@ -1,4 +1,5 @@
-"""The channel's clients: a team's (``eagc login``, ``submit``, ``submissions``) and the
+"""The channel's clients: a team's (``eagc login``, ``submit``, ``submissions``,
+``freeze``) and the
 runner's, both over the channel's HTTP API; and the push of a local image to the channel's
 registry, which ``eagc submit`` does so that a team never types the registry's address.
 
@@ -8,6 +9,7 @@ A team's login is kept in ``$XDG_CONFIG_HOME/eagc/channel.json`` (``~/.config``)
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from collections.abc import Callable
@@ -16,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from orchestrator._channel.db import ChannelError
-from schemas import QuotaView, SubmissionView, SubmitRequest
+from schemas import FreezeRequest, QuotaView, SubmissionView, SubmitRequest
 
 ENV = {"url": "EAGC_CHANNEL_URL", "team": "EAGC_CHANNEL_TEAM", "token": "EAGC_CHANNEL_TOKEN"}
 
@@ -73,11 +75,12 @@ class ChannelClient:
         self.session.headers["Authorization"] = f"Bearer {token}"
         self.timeout_s = timeout_s
 
-    def call(self, method: str, path: str, body: Any = None) -> Any:
+    def call(self, method: str, path: str, body: Any = None, *, data: Any = None) -> Any:
+        """``body`` goes as JSON; ``data`` (bytes or an open file, streamed) as it is."""
         import requests
 
         try:
-            r = self.session.request(method, self.url + path, json=body,
+            r = self.session.request(method, self.url + path, json=body, data=data,
                                      timeout=self.timeout_s)
         except requests.RequestException as e:
             raise ChannelError(f"the channel at {self.url} does not answer "
@@ -193,3 +196,48 @@ def submit(image: str, login: Login, *, note: str = "", disclosure: Path | None 
                            " or ask the organizers")
     ref = image if _is_pushed(image) else push(image, login, who["registry"], say)
     return client.submit(SubmitRequest(image=ref, note=note, disclosure=text))
+
+
+#: What ``eagc freeze`` uploads a file as, by its suffix.
+_UPLOAD_AS = {".pdf": "report.pdf", ".md": "report.md", ".markdown": "report.md",
+              ".yaml": "statement.yaml", ".yml": "statement.yaml",
+              ".json": "statement.json"}
+
+
+def _upload_name(path: Path, kind: str) -> str:
+    name = _UPLOAD_AS.get(path.suffix.lower(), "")
+    if not name.startswith(kind):
+        allowed = sorted(s for s, n in _UPLOAD_AS.items() if n.startswith(kind))
+        raise ChannelError(f"{path}: a {kind} is {', '.join(allowed)}, not "
+                           f"{path.suffix or 'a file without a suffix'}")
+    return name
+
+
+def freeze(sid: str, report: Path, login: Login, *, statement: Path | None = None,
+           phase: str | None = None) -> dict[str, Any]:
+    """``eagc freeze``: uploads the technical report (and the open-source statement),
+    freezes submission ``sid`` with them, and checks that what the channel keeps has the
+    local files' SHA-256; returns the frozen record."""
+    client = ChannelClient(login.url, login.token, timeout_s=300.0)
+    local: dict[str, str] = {}
+    for kind, path in (("report", report), ("statement", statement)):
+        if path is None:
+            continue
+        name = _upload_name(path, kind)
+        try:
+            with path.open("rb") as f:
+                got = client.call("PUT", f"/api/v1/final/files/{name}", data=f)
+            local[kind] = hashlib.sha256(path.read_bytes()).hexdigest()
+        except OSError as e:
+            raise ChannelError(f"cannot read {path}: {e.strerror or e}") from None
+        if got["sha256"] != local[kind]:
+            raise ChannelError(f"the channel received {path} altered (sha256 "
+                               f"{got['sha256'][:12]}, not {local[kind][:12]}): upload again")
+    req = FreezeRequest(submission=sid, statement=statement is not None, phase=phase)
+    record: dict[str, Any] = client.call("POST", "/api/v1/final/freeze",
+                                         req.model_dump(mode="json"))
+    for kind, digest in local.items():
+        if record["files"][kind]["sha256"] != digest:
+            raise ChannelError(f"the frozen {kind} is not the file sent (sha256 "
+                               f"{record['files'][kind]['sha256'][:12]}): freeze again")
+    return record

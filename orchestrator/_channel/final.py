@@ -57,6 +57,8 @@ FORMAT = "eagc-final-manifest/v1"
 FREEZABLE = (S.QUEUED, S.RUNNING, S.SCORED)
 REPORT_SUFFIXES = {".pdf": ".pdf", ".md": ".md", ".markdown": ".md"}
 MAX_FILE_BYTES = 50 * 2**20
+#: The names a team uploads its freeze's files as: its report, then its statement.
+UPLOADS = ("report.pdf", "report.md", "statement.yaml", "statement.json")
 
 _DDL = (
     "CREATE TABLE IF NOT EXISTS finals ("
@@ -188,12 +190,10 @@ def _disclosure(sid: str, text: str | None) -> tuple[bytes, str]:
     return data, suffix
 
 
-def freeze(channel: Channel, team: str, submission_id: str, report_path: Path,
-           statement: Path | None = None, *, phase: str | None = None,
-           now: datetime | None = None, who: str = "") -> Frozen:
-    """Freezes ``team``'s submission ``submission_id`` for the final ``phase`` (module doc);
-    ChannelError after the deadline or the manifest, for a submission that is not the
-    team's or not past its pre-flight, or for a file that does not validate."""
+def may_freeze(channel: Channel, team: str, phase: str | None = None,
+               now: datetime | None = None) -> ChallengePhase:
+    """The final ``team`` may freeze for now; ChannelError (403) after its deadline or its
+    manifest, or for a team that is not one of its finalists."""
     _tables(channel)
     final = final_phase(channel, phase)
     now = now or channel.clock.utc()
@@ -204,9 +204,19 @@ def freeze(channel: Channel, team: str, submission_id: str, report_path: Path,
     if _stored_manifest(channel, final.name) is not None:
         raise ChannelError(f"the final {final.name}'s manifest is written: nothing can be "
                            "frozen any more", 403)
-    if getattr(final, "who", "all") == "finalists" and hasattr(channel, "finalists") \
-            and team not in channel.finalists(final):
+    if final.who == "finalists" and team not in channel.finalists(final):
         raise ChannelError(f"team {team} is not a finalist of {final.name}", 403)
+    return final
+
+
+def freeze(channel: Channel, team: str, submission_id: str, report_path: Path,
+           statement: Path | None = None, *, phase: str | None = None,
+           now: datetime | None = None, who: str = "") -> Frozen:
+    """Freezes ``team``'s submission ``submission_id`` for the final ``phase`` (module doc);
+    ChannelError after the deadline or the manifest, for a submission that is not the
+    team's or not past its pre-flight, or for a file that does not validate."""
+    final = may_freeze(channel, team, phase, now)
+    now = now or channel.clock.utc()
     row = channel.row_for(submission_id, team)
     if row.state not in FREEZABLE:
         raise ChannelError(f"submission {row.id} is {row.state}: freeze one that passed its "
@@ -241,6 +251,31 @@ def freeze(channel: Channel, team: str, submission_id: str, report_path: Path,
     return record
 
 
+def upload_folder(channel: Channel, team: str) -> Path:
+    """Where a team's files for its freeze wait (``PUT /api/v1/final/files/NAME``)."""
+    return final_folder(channel) / ".uploads" / team
+
+
+def freeze_uploaded(channel: Channel, team: str, submission_id: str, *,
+                    statement: bool = False, phase: str | None = None) -> Frozen:
+    """``freeze`` with the files ``team`` uploaded (its newest report and, when
+    ``statement``, its newest statement); the uploads are gone once frozen."""
+    folder = upload_folder(channel, team)
+
+    def newest(kind: str, names: tuple[str, ...]) -> Path:
+        got = [folder / n for n in names if (folder / n).is_file()]
+        if not got:
+            raise ChannelError(f"no {kind} uploaded: `eagc freeze` uploads it, or PUT it "
+                               f"to /api/v1/final/files/{names[0]}", 409)
+        return max(got, key=lambda p: p.stat().st_mtime_ns)
+
+    report = newest("technical report", UPLOADS[:2])
+    extra = newest("open-source statement", UPLOADS[2:]) if statement else None
+    got = freeze(channel, team, submission_id, report, extra, phase=phase, who=team)
+    shutil.rmtree(folder, ignore_errors=True)
+    return got
+
+
 def frozen(channel: Channel, phase: str) -> list[Frozen]:
     """The phase's frozen submissions, by team."""
     _tables(channel)
@@ -262,14 +297,23 @@ def signing_key(keys: Path) -> Any:
         pem = Ed25519PrivateKey.generate().private_bytes(
             serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
             serialization.NoEncryption())
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        tmp = keys / f".manifest.{os.getpid()}.tmp"
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
         with os.fdopen(fd, "wb") as f:
             f.write(pem)
+        try:  # the first of two makers wins; the other reads its key
+            os.link(tmp, path)
+        except FileExistsError:
+            pass
+        finally:
+            tmp.unlink()
     key = serialization.load_pem_private_key(path.read_bytes(), None)
     if not isinstance(key, Ed25519PrivateKey):
         raise ChannelError(f"{path} is not an Ed25519 key")
     if not pub.is_file():
-        pub.write_bytes(public_pem(key))
+        tmp = keys / f".manifest.pub.{os.getpid()}.tmp"
+        tmp.write_bytes(public_pem(key))
+        os.replace(tmp, pub)
     return key
 
 

@@ -386,9 +386,14 @@ def mount(app: FastAPI) -> None:
         return pages.episode_page(team, sid, split, index)
 
 
-def calendar_page(channel: Channel, phases: list[dict[str, Any]]) -> str:
+def calendar_page(channel: Channel, phases: list[dict[str, Any]],
+                  manifest_key: str | None = None) -> str:
     """The challenge's calendar: every window in UTC and Anywhere on Earth, each phase's
-    rules and seed commitment (public: nothing here is secret)."""
+    rules and seed commitment, and the public key that will sign the final's manifest
+    (public: nothing here is secret)."""
     now = channel.clock.utc()
+    fingerprint = (None if manifest_key is None else
+                   hashlib.sha256(manifest_key.encode("ascii")).hexdigest())
     return str(_env().get_template("calendar.html").render(
-        challenge=channel.spec.name, track=channel.spec.track, phases=phases, now=now))
+        challenge=channel.spec.name, track=channel.spec.track, phases=phases, now=now,
+        manifest_key=manifest_key, fingerprint=fingerprint))

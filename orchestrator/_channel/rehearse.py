@@ -22,7 +22,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from orchestrator._channel.client import ChannelClient, Login, submit
+from orchestrator._channel.client import ChannelClient, Login, freeze, submit
 from orchestrator._channel.db import ChannelError
 from schemas import SubmissionState
 
@@ -154,7 +154,7 @@ class Rehearsal:
 
     # ------------------------------------------------------------------ the calendar
     def run(self) -> dict[str, Any]:
-        from orchestrator._channel.final import freeze, verify, write_manifest
+        from orchestrator._channel.final import verify, write_manifest
         from orchestrator._channel.release import audit_phase, findings, release, rule
         from orchestrator._results.finalists import finalists
 
@@ -183,8 +183,10 @@ class Rehearsal:
                                   SubmissionState.SCORED))
         report = self.output / "report.md"
         report.write_text("# Technical report\n\nThe example sanity agent.\n")
-        for team, sid in final.items():
-            freeze(self.channel(), team, sid, report, who="rehearsal")
+        for team, sid in final.items():  # as a team does: `eagc freeze`, over the API
+            got = freeze(sid, report, self.login(team))
+            self.say(f"  {team} froze {sid}: report sha256 "
+                     f"{got['files']['report']['sha256'][:12]}")
         self.settle(final)
         self.until("final", "closes")
         written = write_manifest(self.channel(), "final", self.output / "final")

@@ -99,7 +99,7 @@ def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int
     """Serves until interrupted."""
     import uvicorn
 
-    from orchestrator._channel.api import create_app
+    from orchestrator._channel.api import create_app, manifest_pem
 
     data = data.resolve()
     port = port or free_port(host)
@@ -124,6 +124,7 @@ def serve(spec: ChallengeSpec, data: Path, *, host: str = "127.0.0.1", port: int
         if phase.secret is None:
             channel.phase_secret(phase)
     channel.check_seeds_apart()
+    manifest_pem(channel)  # the final's key, made before the calendar shows it
     served = Served(f"http://{host}:{port}", registry.address, data)
     (data / "serve.json").write_text(json.dumps(
         {"url": served.url, "registry": served.registry, "pid": os.getpid()}))

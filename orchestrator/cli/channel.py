@@ -259,6 +259,29 @@ def submissions_cmd(
         _details(view)
 
 
+def freeze_team_cmd(
+    submission: Annotated[str, typer.Argument(help="Your submission for the final "
+                                              "(queued, running or scored).")],
+    report: Annotated[Path, typer.Option("--report", help="Your technical report (PDF or "
+                                         "Markdown).")],
+    statement: Annotated[Path | None, typer.Option(
+        "--statement", help="Your open-source statement (YAML or JSON), optional.")] = None,
+    phase: Annotated[str | None, typer.Option(
+        "--phase", help="The final phase (default: the challenge's final).")] = None,
+) -> None:
+    """Finalists: freeze a submission, its report and statement before the deadline."""
+    from orchestrator._channel.client import freeze, load_login
+
+    got = freeze(submission, report, load_login(), statement=statement, phase=phase)
+    out.print(f"froze {got['submission']} for the final {got['phase']}: "
+              f"{_short(got['repository'] + '@' + got['digest'])}", highlight=False)
+    for kind, entry in got["files"].items():
+        out.print(f"  {kind:<10} sha256 {entry['sha256'][:16]}…", highlight=False)
+    out.print("a later freeze before the deadline replaces this one; the manifest signed "
+              "at the deadline names exactly these (check it with `eagc challenge "
+              "verify`)", highlight=False)
+
+
 def _line(v: SubmissionView) -> str:
     what = {SubmissionState.QUEUED: (f"position {v.position}"
                                      + (f", starts in ~{_dur(v.eta_s)}" if v.eta_s is not None

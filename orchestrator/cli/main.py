@@ -18,7 +18,13 @@ from rich.console import Console
 from orchestrator._errors import UsageError
 from orchestrator.cli.audit import AUDIT_CODES, audit_cmd
 from orchestrator.cli.campaign import campaign_app, leaderboard_cmd, status_cmd
-from orchestrator.cli.channel import challenge_app, login_cmd, submissions_cmd, submit_cmd
+from orchestrator.cli.channel import (
+    challenge_app,
+    freeze_team_cmd,
+    login_cmd,
+    submissions_cmd,
+    submit_cmd,
+)
 from orchestrator.cli.check_files import CHECK_FILES_CODES, check_files_cmd
 from orchestrator.cli.common import (
     EXIT_CODES_HELP,
@@ -56,6 +62,7 @@ app.command("report", epilog=REPORT_CODES)(report_cmd)
 app.command("login")(login_cmd)
 app.command("submit")(submit_cmd)
 app.command("submissions")(submissions_cmd)
+app.command("freeze")(freeze_team_cmd)
 
 
 def _print_version(value: bool) -> None:

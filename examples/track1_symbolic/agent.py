@@ -6,9 +6,12 @@ It has no motion code of its own: it explores with ``explore_next()`` until noth
 then reads the instruction's ``steps`` ("go to the white jug", "pick up the white jug",
 "open the cabinet in the kitchen", "put the white jug in the cabinet in the kitchen",
 "water the green plant with the white jug") into ``go_to`` / ``fetch`` / ``open`` /
-``place`` / ``use`` calls on the things its model matches. A failure the host reports
-(``locked``, ``unavailable``, an item no longer where it was) is logged as the exception it
-shows, and the step is tried again on what the model offers instead.
+``place`` / ``use`` calls on the things its model matches (a close reading before one from
+afar, which may be a look-alike). A door a skill found locked, a container it found
+unavailable (``Outcome.locked``, ``Outcome.unavailable``, also when the skill went round),
+an item no longer where it was (``fetch`` fails ``not_visible``, within half of the
+detection window) is logged as the exception it shows, and the step is tried again on what
+the model offers instead.
 """
 
 from __future__ import annotations
@@ -87,6 +90,8 @@ class SymbolicAgent:
         """Carries out one step, trying again on what the model offers after a failure."""
         for _ in range(3):
             out = self.attempt(text)
+            if out is not None:
+                self.met(out)
             if out is None or out.ok:
                 return True
             self.log("note", step_text=text, failed=out.reason)
@@ -143,8 +148,8 @@ class SymbolicAgent:
                          if not t.gone and AFFORDANCES.get(t.category) == use]
             if found:
                 held = [t for t in found if t.id == sk.explorer.held]
-                self.it = held[0] if held else min(
-                    found, key=lambda t: math.dist(t.position, sk.explorer.pose[:2]))
+                self.it = held[0] if held else min(found, key=lambda t: (
+                    t.afar, math.dist(t.position, sk.explorer.pose[:2])))
                 return self.it
             if sk.explore_next().reason in STOPS and not self.search(ref):
                 return None
@@ -160,6 +165,7 @@ class SymbolicAgent:
             if any(not t.gone for t in model.matches(ref)):
                 return True
             out = sk.open(place.id) if place.state == "closed" else sk.go_to(place.id)
+            self.met(out)
             if out.reason in (STAGE_ENDING, STAGE_OVER):
                 return False
         return any(not t.gone for t in model.matches(ref))
@@ -173,6 +179,16 @@ class SymbolicAgent:
             if t.id in self.skills.explorer.seen_now and t.state in ("locked", "unavailable"):
                 self.report(SHOWS[t.state], seen=t.id)
 
+    def met(self, out: Outcome) -> None:
+        """A door or container a skill found locked or unavailable during execution, also
+        when it went round it: the exception it shows."""
+        if self.skills.ts.stage != "execution" and not self.skills.ts.episode_over:
+            return
+        for door in out.locked:
+            self.report("door_lock", door=door)
+        for box in out.unavailable:
+            self.report("container_unavailable", container=box)
+
     def report(self, kind: str, **data: Any) -> None:
         if kind not in self.reported:
             self.reported.add(kind)
@@ -185,11 +201,7 @@ class SymbolicAgent:
         seen is gone from there)."""
         sk = self.skills
         if out.reason == "hand_full":  # put down what it holds, on the nearest furniture
-            spots = sorted(sk.model.of_kind("furniture"),
-                           key=lambda t: math.dist(t.position, sk.explorer.pose[:2]))
-            for spot in spots[:3]:
-                if sk.place(sk.explorer.held, spot.id).ok:
-                    break
+            self.met(sk.drop())
             return
         kind = SHOWS.get(out.reason)
         target = self.skills.model.things.get(out.target or -1)

@@ -7,9 +7,10 @@ observation's odometry, range scan, room sign, hand, collision flag and detectio
 host's messages.
 
 - ``Skills(env, ts)``: ``go_to(thing)`` / ``go_to(room=…)``, ``explore_next()``,
-  ``fetch(id)``, ``place(id, receptacle)``, ``open(id)``, ``use(tool, target)``; each steps
-  the episode until it is done or failed and returns an ``Outcome`` (status, the host's
-  failure reason as it gave it or the skill's own, steps used).
+  ``fetch(id)``, ``place(id, receptacle)``, ``drop()``, ``open(id)``, ``use(tool,
+  target)``; each steps the episode until it is done or failed and returns an ``Outcome``
+  (status, the host's failure reason as it gave it or the skill's own, steps used, the
+  doors found locked and containers found unavailable on the way).
 - ``Explorer``: the map (``Grid``), the model (``WorldModel``, ``Thing``) and one-step
   motion (``Navigator``, ``DoorOpener``; ``act_on``, ``next_goal``, ``pursue``), which the
   Track 1 baselines (``examples/track1_common``) extend.
@@ -20,7 +21,13 @@ host's messages.
 from simhost.client.skills._explorer import Explorer
 from simhost.client.skills._language import parse, thing
 from simhost.client.skills._mapping import Grid, steer
-from simhost.client.skills._model import AFFORDANCES, SIZES, Thing, WorldModel
+from simhost.client.skills._model import (
+    AFFORDANCES,
+    READS_RIGHT_WITHIN,
+    SIZES,
+    Thing,
+    WorldModel,
+)
 from simhost.client.skills._navigation import (
     DoorOpener,
     Navigator,
@@ -32,7 +39,10 @@ from simhost.client.skills._navigation import (
     reach_radius,
 )
 from simhost.client.skills._skills import (
+    ABSENCE_RANGE,
+    DETECT_WINDOW,
     EXPLORED,
+    FETCH_PATIENCE,
     GAVE_UP,
     NOT_HOLDING,
     NOT_IN_MODEL,
@@ -40,21 +50,27 @@ from simhost.client.skills._skills import (
     STAGE_ENDING,
     STAGE_OVER,
     UNREACHABLE,
+    UNREACHABLE_OPENS,
     Outcome,
     Skills,
 )
 
 __all__ = [
+    "ABSENCE_RANGE",
     "AFFORDANCES",
+    "DETECT_WINDOW",
     "EXPLORED",
+    "FETCH_PATIENCE",
     "GAVE_UP",
     "NOT_HOLDING",
     "NOT_IN_MODEL",
+    "READS_RIGHT_WITHIN",
     "RETRY_REASONS",
     "SIZES",
     "STAGE_ENDING",
     "STAGE_OVER",
     "UNREACHABLE",
+    "UNREACHABLE_OPENS",
     "DoorOpener",
     "Explorer",
     "Grid",

@@ -6,8 +6,12 @@ when it entered) when the line of sight crosses no doorway (walls block sight, s
 in the same room), else the room behind that doorway. A door belongs to the rooms it is seen
 from directly, and to the two rooms the robot passes between when it crosses it; two such
 rooms make a connection. A thing is as it was seen last: category, colour, position and
-state of its latest sighting (a thing seen from afar may read as a look-alike; the robot
-goes close to what it acts on, so the reading it acts on is a close one).
+state of its latest sighting. A thing seen from afar may read as a look-alike
+(``simhost.client.CONFUSABLE``, ``CONFUSABLE_COLOURS``): the detector reads an item right
+within ``READS_RIGHT_WITHIN`` of the robot, furniture and containers within their own,
+longer, distance, and beyond that the same look-alike each time; a thing's ``read_at`` is
+the distance of the sighting its category and colour come from, and ``afar`` says when that
+reading may be a look-alike.
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
-from simhost.client import OutputFiles
+from simhost.client import CONFUSABLE, CONFUSABLE_COLOURS, OutputFiles
 
 AFFORDANCES = {"sponge": "wipe", "cloth": "wipe", "knife": "cut", "scissors": "cut",
                "watering_can": "water", "jug": "water"}
@@ -25,6 +29,18 @@ SIZES = {"table": (1.2, 0.8), "counter": (1.6, 0.6), "shelf": (1.0, 0.4), "bed":
          "desk": (1.2, 0.6), "sofa": (1.8, 0.8), "cabinet": (0.8, 0.5), "drawer": (0.7, 0.5),
          "fridge": (0.7, 0.7), "bin": (0.45, 0.45)}
 DOORWAY = 0.55
+READS_RIGHT_WITHIN = {"object": 1.0, "tool": 1.0, "furniture": 5.0 / 3.0,
+                      "container": 5.0 / 3.0}
+"""Per kind, the distance (m) within which the Track 1 detector always reads a thing's
+category and colour right: 1 m for items; furniture and containers scaled by their longer
+sensing range (5 m against 3 m). Beyond it a thing may read as a look-alike (each thing
+from a distance of its own, up to three times this); doors never do."""
+READ_MARGIN = 0.1
+"""How much nearer than ``READS_RIGHT_WITHIN`` a reading must be to count as close (the
+distance the agent measures carries the detector's position noise)."""
+_LOOKS_LIKE = ({c for alike in CONFUSABLE.values() for c in alike},
+               {c for alike in CONFUSABLE_COLOURS.values() for c in alike})
+"""The categories and colours a detector may report for something else."""
 
 
 @dataclass
@@ -39,10 +55,22 @@ class Thing:
     position: tuple[float, float]
     rooms: Counter[int] = field(default_factory=Counter)  # direct sightings per room
     via: dict[int, int] = field(default_factory=dict)  # door id -> robot room, seen through it
-    last_seen: int = 0
+    last_seen: int = 0  # the step of its latest sighting (``Skills.steps`` at that reply)
     gone: bool = False
     latest: int | None = None  # room of the latest direct sighting
     seen_from: tuple[float, float] | None = None  # where the robot stood at the last sighting
+    read_at: float = math.inf  # distance (m) of the sighting its category and colour are from
+
+    @property
+    def afar(self) -> bool:
+        """Whether its category or colour may be a look-alike: read from beyond the
+        distance where the detector reads this kind right (``READS_RIGHT_WITHIN``), as a
+        name that something else may be read as. Go close (``Skills.go_to``) and match
+        again to be sure."""
+        sure = READS_RIGHT_WITHIN.get(self.kind)
+        if sure is None or self.read_at <= sure - READ_MARGIN:
+            return False
+        return self.category in _LOOKS_LIKE[0] or self.colour in _LOOKS_LIKE[1]
 
     @property
     def room(self) -> int | None:
@@ -85,6 +113,7 @@ class WorldModel:
             t.state = self.seen_state(t, d["state"])
             t.position, t.last_seen, t.gone = pos, step, False
             t.category, t.colour = d["category"], d["colour"]
+            t.read_at = math.hypot(rx, ry)
             t.seen_from = (x, y)
             through = self.doorway_between((x, y), pos, exclude=d["id"])
             if through is None:
@@ -211,7 +240,10 @@ class WorldModel:
                    key=lambda f: math.dist(f.position, t.position), default=None)
 
     def matches(self, ref: dict[str, Any]) -> list[Thing]:
-        """Things that fit a description (category, colour, room type, what it is on)."""
+        """Things that fit a description (category, colour, room type, what it is on), as
+        they read at their latest sighting. A match whose ``afar`` is true was read from
+        afar and may be a look-alike of what the description names (a red mug seen from
+        3 m may be an orange bowl): go close and match again before acting on it."""
         out = []
         for t in self.find(ref["category"], ref.get("colour")):
             room = self.room_of(t)

@@ -40,6 +40,25 @@ STAGE_OVER = "stage_over"
 GAVE_UP = "gave_up"
 """The skill's own step limit (``max_steps``) ran out."""
 
+DETECT_WINDOW = 30
+"""Steps after an exception's first observable effect within which Track 1 counts its
+``exception_detected`` record (``plugins/track1/_score.py``'s ``DETECT_WINDOW``; the scoring
+is not importable in a team's container, a test keeps the two equal)."""
+FETCH_PATIENCE = DETECT_WINDOW // 2
+"""Steps ``fetch`` keeps trying once the thing looks absent (the host said ``not_visible``,
+or the robot stood in its room within ``ABSENCE_RANGE`` of where it was seen, facing it,
+without seeing it) before it fails ``not_visible``: half the detection window, so that the
+caller still has the other half to log the exception (the host may have counted the
+effect a few steps before the skill could be sure)."""
+ABSENCE_RANGE = 2.5
+"""How near to where an item was seen the robot must be, facing it, for not seeing it to
+count as a sign that it is gone (Track 1 counts its old place seen within 2.5 m as the
+relocation's first observable effect: ``plugins/track1/_exceptions.py``'s
+``EFFECT_RADIUS``)."""
+UNREACHABLE_OPENS = 2
+"""``explore_next``: ``out_of_reach`` replies to the goal's ``open`` after which the goal is
+set aside (the door or container is left for a later skill's way past it)."""
+
 
 @dataclass(frozen=True)
 class Outcome:
@@ -55,6 +74,10 @@ class Outcome:
         by_host: Whether ``reason`` is the host's reply to an action.
         steps: Step requests this skill sent.
         target: The id it acted on or went to, when there was one.
+        locked: The doors an ``open`` sent during this call found locked (the host said
+            ``locked``), in the order met, also when the skill went round them and is done.
+        unavailable: The containers an ``open`` or ``place`` sent during this call found
+            unavailable (the host said ``unavailable``).
     """
 
     status: Literal["done", "failed"]
@@ -62,6 +85,8 @@ class Outcome:
     by_host: bool = False
     steps: int = 0
     target: int | None = None
+    locked: tuple[int, ...] = ()
+    unavailable: tuple[int, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -95,13 +120,16 @@ class Skills:
         reserve_s: ... or this many seconds.
         attempts: How many times an action is tried after ``out_of_reach``,
             ``not_visible`` or ``blocked_by_robot``.
-        on_reply: Called with every reply the skills take, after the map has it (to log,
-            or to notice what the agent's own rules look for).
+        on_reply: Called with every reply the skills take, after the map and the model
+            have it (to log, or to notice what the agent's own rules look for). An
+            exception it raises ends the running skill at once and reaches the skill's
+            caller (no ``Outcome``; ``ts`` and the map hold the reply).
 
     Attributes:
         ts: The latest reply. ``explorer``: the map and model (``explorer.model``, a
         ``WorldModel``: ``model.write(OutputFiles())`` writes ``world_model.json``).
-        messages: Every host message received so far, in order. steps: step requests sent.
+        messages: Every host message received so far, in order. steps: step requests sent
+        (the step of the latest reply, the one ``Thing.last_seen`` and the log count).
     """
 
     def __init__(self, env: RemoteEnv, ts: TimeStep, *, explorer: Explorer | None = None,
@@ -114,6 +142,7 @@ class Skills:
         self.messages: list[Any] = []
         self.steps = 0
         self._last: dict[str, Any] | None = None
+        self._met: dict[str, list[int]] = {"locked": [], "unavailable": []}
         self.ts = ts
         self.observe(ts)
 
@@ -166,9 +195,13 @@ class Skills:
             thing.state = "locked"
         elif result.reason == "unavailable" and thing.kind == "container":
             thing.state = "unavailable"
-        if last.get("primitive") == "open" and self.explorer.nav.door is not None and (
-                self.explorer.nav.door.door.id == thing.id):
-            self.explorer.nav.door.result(result.reason)
+        met = self._met.get(result.reason)
+        if met is not None and thing.id not in met:
+            met.append(thing.id)
+        if last.get("primitive") == "open":  # to the opener that sent it: the navigator's
+            for opener in {self.explorer.nav.door, self.explorer.opener}:  # or the goal's
+                if opener is not None and opener.door.id == thing.id:
+                    opener.result(result.reason)
 
     def _check(self, stage: str) -> None:
         ts = self.ts
@@ -182,6 +215,7 @@ class Skills:
         """Runs a skill's body (a generator of actions that returns its Outcome)."""
         start, stage = self.steps, self.ts.stage
         self.explorer.nav.reset()  # a new skill: no path or door of the last one
+        self._met = {"locked": [], "unavailable": []}
         try:
             self._check(stage)
             action = next(body)
@@ -197,7 +231,8 @@ class Skills:
             out = Outcome("failed", stop.reason)
         finally:
             body.close()  # its clean-up runs now, also when it was stopped
-        return Outcome(out.status, out.reason, out.by_host, self.steps - start, target)
+        return Outcome(out.status, out.reason, out.by_host, self.steps - start, target,
+                       tuple(self._met["locked"]), tuple(self._met["unavailable"]))
 
     def _thing(self, thing_id: int) -> Thing | None:
         return self.model.things.get(thing_id)
@@ -206,10 +241,12 @@ class Skills:
     def go_to(self, thing: int | None = None, *, room: int | str | None = None,
               max_steps: int | None = None) -> Outcome:
         """Goes within reach of a thing (by id), facing it, or into a room (by id, or by
-        type such as "kitchen": the nearest of that type) the robot has been in.
+        type such as "kitchen": the nearest of that type) the robot has been in, opening
+        closed doors on the way and going round those found locked.
 
         Returns done on arrival; failed with ``not_in_model`` (never seen), ``unreachable``
-        or a stage reason.
+        or a stage reason. Either way the outcome's ``locked`` names the doors found
+        locked on the way.
         """
         if (thing is None) == (room is None):
             raise ValueError("go_to takes a thing id or room=, not both or neither")
@@ -281,12 +318,21 @@ class Skills:
 
     def _explore(self) -> _Body:
         ex = self.explorer
+        goal = ex.goal
+        out_of_reach = 0
         try:
             while (act := ex.pursue()) is not None:
                 ts = yield act
-                if act["primitive"] == "open" and ts.action is not None and not ts.action.ok \
-                        and ts.action.reason in ("locked", "unavailable"):
+                if act["primitive"] != "open" or ts.action is None or ts.action.ok:
+                    continue
+                if ts.action.reason in ("locked", "unavailable"):
                     return Outcome("failed", ts.action.reason, True)
+                if ts.action.reason == "out_of_reach" and goal is not None and isinstance(
+                        goal[1], int) and act.get("target") == goal[1]:
+                    out_of_reach += 1
+                    if out_of_reach >= UNREACHABLE_OPENS:  # set it aside: done with it
+                        ex.failed.add(goal[1])
+                        return Outcome("done")
             return Outcome("done")
         finally:
             ex.goal = None
@@ -328,13 +374,25 @@ class Skills:
         finally:
             ex.nav.door = None
 
-    def _act(self, t: Thing, primitive: str, **extra: Any) -> _Body:
-        """Reaches a thing and sends ``primitive`` on it until the host says ok."""
+    def _act(self, t: Thing, primitive: str, *, patience: int | None = None,
+             **extra: Any) -> _Body:
+        """Reaches a thing and sends ``primitive`` on it until the host says ok.
+        ``patience``: fail ``not_visible`` this many steps after the thing first looked
+        absent (``_absent``), unless it was seen again meanwhile."""
         ex = self.explorer
         tries = 0
+        since: int | None = None  # the step it first looked absent
+        host_said = False
         while True:
             if ex.radius.get(t.id, 0.0) > reach_radius(t) + 1.5:  # widened, still no way
                 return Outcome("failed", UNREACHABLE)
+            if patience is not None:
+                if t.id in ex.seen_now:
+                    since, host_said = None, False
+                elif since is None and self._absent(t):
+                    since = self.steps
+                if since is not None and self.steps - since >= patience:
+                    return Outcome("failed", "not_visible", host_said)
             act = ex.act_on(t, primitive, **extra)
             if act is None:
                 return Outcome("failed", UNREACHABLE)
@@ -342,6 +400,9 @@ class Skills:
             if act.get("primitive") != primitive:
                 continue
             result = ts.action
+            if patience is not None and result is not None and result.reason == "not_visible":
+                host_said = True
+                since = self.steps if since is None else since
             if result is None or result.ok or (
                     primitive == "open" and result.reason == "already_open"):
                 if primitive == "open":
@@ -353,11 +414,34 @@ class Skills:
             if result.reason == "blocked_by_robot":
                 yield {"primitive": "move", "move": [-0.5, 0.0]}
 
+    def _absent(self, t: Thing) -> bool:
+        """Whether not seeing a thing now is a sign that it is gone: the robot is in the
+        room it was seen in, within ``ABSENCE_RANGE`` of where it was seen, facing it (the
+        detector sees 60 degrees either side of ahead), with no wall on the map between."""
+        ex = self.explorer
+        x, y, yaw = ex.pose
+        if ex.room != self.model.room_of(t) or math.dist((x, y), t.position) > ABSENCE_RANGE:
+            return False
+        bearing = math.atan2(t.position[1] - y, t.position[0] - x)
+        if abs(math.remainder(bearing - yaw, math.tau)) > 0.9:
+            return False
+        d = math.dist((x, y), t.position)
+        occupied = ex.grid.occupied()
+        for k in range(1, int((d - 0.6) / 0.1) + 1):  # up to 0.6 m short of it: its stand
+            i, j = ex.grid.cell(x + (t.position[0] - x) * k * 0.1 / d,
+                                y + (t.position[1] - y) * k * 0.1 / d)
+            if occupied[i, j]:
+                return False
+        return True
+
     def fetch(self, thing: int, max_steps: int | None = None) -> Outcome:
         """Picks a thing up: opens the closed container it was seen in, goes within reach on
         the side it was seen from, faces it and picks it. Done when the robot holds it;
-        failed with the host's reason (``hand_full``, ``not_visible`` after the retries: it
-        is not where it was seen, …) otherwise."""
+        failed with the host's reason (``hand_full``, …) otherwise, and with
+        ``not_visible`` at most ``FETCH_PATIENCE`` steps after the thing first looked
+        absent (the host said ``not_visible``, or the robot faced where it was seen, near,
+        without seeing it): it is not where it was seen. ``by_host`` says whether the host
+        said so; either way the caller has half of Track 1's detection window left."""
         t = self._thing(thing)
         if t is None:
             return Outcome("failed", NOT_IN_MODEL, target=thing)
@@ -371,7 +455,7 @@ class Skills:
             opened = yield from self._act(box, "open")
             if not opened.ok:
                 return opened
-        return (yield from self._act(t, "pick"))
+        return (yield from self._act(t, "pick", patience=FETCH_PATIENCE))
 
     def place(self, thing: int, receptacle: int, max_steps: int | None = None) -> Outcome:
         """Puts the thing the robot holds on or in a receptacle (opening a closed container
@@ -390,6 +474,35 @@ class Skills:
             if not opened.ok:
                 return opened
         return (yield from self._act(r, "place"))
+
+    def drop(self, max_steps: int | None = None) -> Outcome:
+        """Puts down what the robot holds, on the nearest furniture or open container of
+        the model (the next nearest when the host says ``receptacle_full``,
+        ``unavailable`` or ``not_a_receptacle``; three at most). Done when the hand is
+        empty; failed with ``not_holding`` (nothing held), ``not_in_model`` (nothing to put
+        it on) or the last host reason. ``target`` is the receptacle it put it on."""
+        if self.explorer.held < 0:
+            return Outcome("failed", NOT_HOLDING)
+        here = self.explorer.pose[:2]
+        spots = sorted((t for t in self.model.of_kind("furniture", "container")
+                        if t.state not in ("closed", "locked", "unavailable")),
+                       key=lambda t: math.dist(t.position, here))[:3]
+        if not spots:
+            return Outcome("failed", NOT_IN_MODEL)
+        where: list[int] = []
+        out = self._run(self._drop(spots, where), None, max_steps)
+        return Outcome(out.status, out.reason, out.by_host, out.steps,
+                       where[-1] if where else None, out.locked, out.unavailable)
+
+    def _drop(self, spots: list[Thing], where: list[int]) -> _Body:
+        out = Outcome("failed", NOT_IN_MODEL)
+        for spot in spots:
+            where.append(spot.id)
+            out = yield from self._act(spot, "place")
+            if out.ok or out.reason not in ("receptacle_full", "unavailable",
+                                            "not_a_receptacle"):
+                return out
+        return out
 
     def use(self, tool: int, target: int, max_steps: int | None = None) -> Outcome:
         """Uses the tool the robot holds on a target (wipe, cut, water: the host picks the

@@ -16,7 +16,10 @@ JSON Schemas are the ones the tracks' scores read.
 
 from __future__ import annotations
 
-from typing import Any, Final, Literal
+import json
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar, Final, Literal, get_args
 
 from pydantic import AliasChoices, BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
@@ -42,6 +45,14 @@ class _File(BaseModel):
     #: The report lines of the fields nothing grades whose value could not be read (set
     #: alike): ignored, as unknown keys are.
     _unreadable: tuple[str, ...] = PrivateAttr(default=())
+    #: The notes on the near-miss shapes the file held (``NearMiss.note``; set alike).
+    _near_misses: tuple[str, ...] = PrivateAttr(default=())
+
+    def near_miss_notes(self) -> tuple[str, ...]:
+        """One note per near-miss shape the file held (its model's ``near_misses``): the
+        shape found, what the score made of it, and the shape the model reads, with an
+        example. Empty for an object not read by ``schemas.parse_json``."""
+        return self._near_misses
 
 
 def _example(*examples: dict[str, Any]) -> ConfigDict:
@@ -113,6 +124,95 @@ class Affordance(_File):
     affordance: str = graded()
 
 
+def example_of(model: type[BaseModel]) -> Any:
+    """The first example of ``model``'s JSON Schema (None when it has none)."""
+    extra = model.model_config.get("json_schema_extra")
+    examples = extra.get("examples") if isinstance(extra, dict) else None
+    return examples[0] if isinstance(examples, list) and examples else None
+
+
+def _json(value: Any) -> str:
+    return json.dumps(value, separators=(", ", ": "), ensure_ascii=False)
+
+
+@dataclass(frozen=True)
+class NearMiss:
+    """A shape a team is likely to write where the file's model reads another: found in
+    the file as written (``schemas.parse_json``), noted with the shape the model reads.
+
+    ``at`` is where it is found, as a path whose ``[]`` steps into each entry of a list
+    (``topology[].frontiers[]``); ``test`` is true of each entry there in this shape
+    (None: found by the track, whose vocabulary it needs); with ``leave_out``, those
+    entries are left out before the file is read (they would refuse it), else read as
+    they are (an unknown key is ignored). ``found`` says what they are; a ``{keys}`` in
+    it is the first entry's keys. ``lost`` says what the score made of them. ``fields``
+    are the model's fields that take what they hold, each shown by its example.
+    """
+
+    at: str
+    found: str
+    lost: str
+    fields: tuple[str, ...]
+    test: Callable[[Any], bool] | None
+    leave_out: bool = False
+
+    @property
+    def key(self) -> str:
+        """The top-level key it is under."""
+        return self.at.split("[")[0].split(".")[0]
+
+    def entries(self, doc: Mapping[str, Any]) -> list[Any]:
+        """Every entry at ``at`` in ``doc`` (a file's JSON), whatever its shape."""
+        level: list[Any] = [doc]
+        for part in self.at.split("."):
+            name = part.removesuffix("[]")
+            level = [x.get(name) for x in level if isinstance(x, dict)]
+            if part.endswith("[]"):
+                level = [e for x in level if isinstance(x, list) for e in x]
+        return level
+
+    def find(self, doc: Mapping[str, Any]) -> tuple[list[Any], int]:
+        """The entries of ``doc`` in this shape, and how many entries ``at`` holds."""
+        entries = self.entries(doc)
+        if self.test is None:
+            return [], len(entries)
+        return [e for e in entries if self.test(e)], len(entries)
+
+    def note(self, found: Sequence[Any], total: int, model: type[BaseModel],
+             width: int = 80) -> str:
+        """The note on ``found`` (entries in this shape, or what names them) of the
+        ``total`` at ``at`` in a file of ``model``: ``rooms: 2 of 2 entries are names,
+        not objects ("bedroom", "hall"): …; eagc reads rooms: [{"id": 3, …}]``."""
+        shown: list[str] = []
+        for value in found:
+            text = _json(value)
+            if shown and sum(map(len, shown)) + len(text) > width:
+                break
+            shown.append(text if len(text) <= width else text[:width - 1] + "…")
+        values = ", ".join(shown) + (", …" if len(shown) < len(found) else "")
+        first = found[0] if found else None
+        keys = "{" + ", ".join(map(str, first)) + "}" if isinstance(first, dict) else ""
+        expected = " and ".join(
+            f"{f}: [{_json(example_of(get_args(model.model_fields[f].annotation)[0]))}]"
+            for f in self.fields)
+        return (f"{self.at.removesuffix('[]')}: {len(found)} of {total} entries "
+                f"{self.found.format(keys=keys)} ({values}): {self.lost}; eagc reads "
+                f"{expected}")
+
+
+def _is_name(entry: Any) -> bool:
+    return isinstance(entry, str | int | float) and not isinstance(entry, bool)
+
+
+def _is_triple(entry: Any) -> bool:
+    return isinstance(entry, dict) and {"entity", "attribute", "value"} <= set(entry)
+
+
+def _not_a_pair(entry: Any) -> bool:
+    return (isinstance(entry, dict) and not {"tool", "affordance"} & set(entry)
+            and bool({"object", "actions", "action"} & set(entry)))
+
+
 class WorldModel(_File):
     """``world_model.json``: the agent's queryable model of the house (Track 1).
 
@@ -131,6 +231,28 @@ class WorldModel(_File):
     containers: list[ContainerState] = graded(default_factory=list)
     objects: list[ObjectEntry] = graded(default_factory=list)
     affordances: list[Affordance] = graded(default_factory=list)
+
+    #: The near-miss shapes teams wrote before eagc existed (issue 35), each noted where
+    #: it is found; ``objects`` is found by the track (its door and container words).
+    near_misses: ClassVar[tuple[NearMiss, ...]] = (
+        NearMiss("rooms[]", "are names, not objects",
+                 "left out (rooms are not graded; the room graph is graded from "
+                 "connections)", ("rooms",), _is_name, leave_out=True),
+        NearMiss("topology[].frontiers[]",
+                 "are room links under topology, a key eagc does not read",
+                 "the room graph is graded from connections", ("connections",),
+                 lambda entry: True),
+        NearMiss("states[]",
+                 "are {keys} triples, a key eagc does not read",
+                 "door and container states are graded from doors and containers",
+                 ("doors", "containers"), _is_triple),
+        NearMiss("affordances[]", "are {keys}, not a tool and an affordance",
+                 "left out, not graded", ("affordances",), _not_a_pair, leave_out=True),
+        NearMiss("objects[]", "are doors or containers",
+                 "graded as objects, which they match none of; door and container "
+                 "states are graded from doors and containers",
+                 ("doors", "containers"), None),
+    )
 
 
 class NamedItem(_File):

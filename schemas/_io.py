@@ -21,7 +21,7 @@ from typing import Any, TypeVar, Union, get_args, get_origin
 from pydantic import BaseModel, ValidationError
 
 from schemas._errors import SchemaError
-from schemas._files import EVENT_MEANINGS, LogRecord
+from schemas._files import EVENT_MEANINGS, LogRecord, NearMiss
 
 M = TypeVar("M", bound=BaseModel)
 
@@ -400,29 +400,57 @@ class FileProblems(SchemaError):
 
 
 # -------------------------------------------------------------------------- parsing
-def _record(obj: BaseModel, ignored: Sequence[str], unreadable: Sequence[str] = ()) -> None:
+def _record(obj: BaseModel, ignored: Sequence[str], unreadable: Sequence[str] = (),
+            near: Sequence[str] = ()) -> None:
     if ignored and hasattr(obj, "_ignored"):
         obj._ignored = tuple(ignored)
     if unreadable and hasattr(obj, "_unreadable"):
         obj._unreadable = tuple(unreadable)
+    if near and hasattr(obj, "_near_misses"):
+        obj._near_misses = tuple(near)
+
+
+def near_misses(doc: Any, model: type[BaseModel]) -> tuple[Any, list[str], set[str]]:
+    """The near-miss shapes of ``model`` (its ``near_misses``) that the file's JSON
+    ``doc`` holds: ``doc`` without the entries left out, a note on each shape
+    (``NearMiss.note``), and the unknown top-level keys the notes say are not read."""
+    misses: Sequence[NearMiss] = getattr(model, "near_misses", ())
+    if not isinstance(doc, dict) or not misses:
+        return doc, [], set()
+    kept, notes, keys = dict(doc), [], set()
+    for miss in misses:
+        found, total = miss.find(doc)
+        if not found:
+            continue
+        notes.append(miss.note(found, total, model))
+        if miss.leave_out and miss.test is not None:
+            kept[miss.key] = [e for e in kept[miss.key] if not miss.test(e)]
+        elif miss.key not in _names(model):
+            keys.add(miss.key)
+    return kept, notes, keys
 
 
 def _validate(doc: Any, model: type[M], prefix: tuple[Any, ...] = ()
               ) -> tuple[M | None, list[Problem]]:
-    """``doc`` validated (fields nothing grades that fail are left out and reported), or
-    None and every problem."""
+    """``doc`` validated (fields nothing grades that fail are left out and reported;
+    entries in a near-miss shape of a file's top object noted, some left out), or None
+    and every problem."""
     lead = f"line {prefix[1]}: " if prefix else ""
-    unknown = [f"{lead}{_path(x)}" for x in unknown_keys(doc, model)]
+    doc, near, said = near_misses(doc, model) if not prefix else (doc, [], set())
+    unknown = [f"{lead}{_path(x)}" for x in unknown_keys(doc, model) if x[0] not in said]
     try:
         obj = model.model_validate(doc)
     except ValidationError as e:
         kept = _lenient(doc, model, e)
         if kept is None:
-            return None, problems_of(e, doc, model, prefix)
+            problems = [p for p in problems_of(e, doc, model, prefix)
+                        if not (p.unknown and p.loc[:1] and p.loc[0] in said)]
+            return None, problems + [Problem((), n, whole=True, ungraded=True)
+                                     for n in near]
         obj, left = kept
-        _record(obj, unknown, [f"{lead}{line}" for line in problem_lines(left)])
+        _record(obj, unknown, [f"{lead}{line}" for line in problem_lines(left)], near)
         return obj, []
-    _record(obj, unknown)
+    _record(obj, unknown, (), near)
     return obj, []
 
 

@@ -38,16 +38,19 @@ by category and position before any of the above is computed (``_types.own_ids``
 
 The card's notes say where credit was thrown away (``credit_notes``), with the audit's own
 checks (``plugins.track1.audit``: ``detection_flags``, ``world_model_flags``) on what the
-episode recorded it showed the agent: an ``exception_detected`` before the exception, ids
-and room ids in the model that match nothing the agent was shown, log steps that disagree
-with the host's count, queries left unanswered, and the keys of the files nothing grades.
+episode recorded it showed the agent: an ``exception_detected`` before the exception, an
+exception never detected, ids and room ids in the model that match nothing the agent was
+shown, the world model's near-miss shapes with the shape it should have
+(``shape_notes``), log steps that disagree with the host's count, queries left
+unanswered, and the keys of the files nothing grades.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from typing import Any, get_args
 
 from plugins._audit import HostSteps, log_step_findings
 from plugins._base import ScoringInput
@@ -76,8 +79,16 @@ from plugins.track1.audit import (
     detection_flags,
     world_model_flags,
 )
-from schemas import LogRecord, ScoreCard, WorldModel, ignored_note
-from simhost.worlds.track1 import HouseTruth
+from schemas import (
+    ContainerState,
+    DoorState,
+    LogRecord,
+    ObjectEntry,
+    ScoreCard,
+    WorldModel,
+    ignored_note,
+)
+from simhost.worlds.track1 import CONTAINER_CATEGORIES, HouseTruth
 
 WEIGHTS = {"task": 0.40, "model": 0.20, "recovery": 0.20, "efficiency": 0.10, "safety": 0.10}
 MODEL_PARTS = {"topology": 0.25, "objects": 0.25, "states": 0.15, "affordances": 0.10,
@@ -274,6 +285,61 @@ def detection_notes(o: Track1Outcome, log: Sequence[LogRecord],
     return notes
 
 
+#: What each exception changed, in the notes (``ExceptionRecord.subject``).
+SUBJECTS = {"door_lock": "door", "object_relocation": "item",
+            "container_unavailable": "container", "tool_substitution": "tool"}
+
+
+def missed_notes(o: Track1Outcome, log: Sequence[LogRecord]) -> list[str]:
+    """A note on an exception that happened and that no ``exception_detected`` record of
+    its type claimed, in time or late (a late one has its own note): the detection third
+    of recovery is lost."""
+    rec = o.exception
+    if rec is None:
+        return []
+    effect = rec.effect_step if rec.effect_step is not None else o.steps
+    claims = [r.step for r in log
+              if r.event == "exception_detected" and r.exception_type == rec.type]
+    if any(step >= rec.step for step in claims):
+        return []
+    moved = rec.details.get("receptacle")
+    what = f"{SUBJECTS.get(rec.type, 'subject')} {rec.subject}" + (
+        f" put away in {moved}" if rec.type == "object_relocation" and moved is not None
+        else "")
+    shown = (f"its first effect the agent could see came at step {rec.effect_step}"
+             if rec.effect_step is not None else
+             "nothing the agent saw showed it (" + (
+                 "neither the item elsewhere nor its old place without it"
+                 if rec.type == "object_relocation" else "no failed action on it")
+             + "), so the window ran to the last step")
+    return [f"{rec.type} at step {rec.step} ({what}) never detected: no "
+            f"exception_detected record of type {rec.type} in steps {rec.step}-"
+            f"{effect + DETECT_WINDOW}; {shown}: the detection (1/3 of recovery) "
+            "scored 0"]
+
+
+def shape_notes(model: WorldModel | None) -> list[str]:
+    """The notes on the near-miss shapes of ``model`` (``WorldModel.near_misses``): those
+    found as the file was read, and doors and containers filed as objects (by category,
+    a door or container state, or an id that names one)."""
+    if model is None:
+        return []
+    notes = list(model.near_miss_notes())
+    words = {"door", *CONTAINER_CATEGORIES}
+    states = {*get_args(DoorState.model_fields["state"].annotation),
+              *get_args(ContainerState.model_fields["state"].annotation)} - {"unknown"}
+
+    def filed(o: ObjectEntry) -> bool:
+        named = set(re.split(r"[^a-z]+", o.id.lower())) if isinstance(o.id, str) else set()
+        return o.category in words or o.state in states or bool(named & words)
+
+    found = [o.id for o in model.objects if filed(o)]
+    if found:
+        miss = next(m for m in WorldModel.near_misses if m.key == "objects")
+        notes.append(miss.note(found, len(model.objects), WorldModel))
+    return notes
+
+
 def _model_ids(model: WorldModel) -> tuple[set[int], set[int]]:
     """The instance ids and the room ids a model names (as ``world_model_flags`` reads
     them)."""
@@ -378,13 +444,18 @@ def credit_notes(data: ScoringInput[Track1Scenario, Track1Outcome], o: Track1Out
     log = data.log()
     snapshot = data.snapshot(EXPLORATION, "world_model.json", WorldModel)
     graded = snapshot if graded is None else graded
-    notes = detection_notes(o, log, data.scenario.params)
+    notes = detection_notes(o, log, data.scenario.params) + missed_notes(o, log)
     if own_ids(data.scenario):  # vision: nothing was shown by id; entries pair by position
         notes += unmatched_notes(graded)
     else:
         notes += named_id_notes(graded)
         notes += unseen_notes(graded, shown_from(o.shown),
                               o.stage_steps.get(EXPLORATION, o.steps))
+    shapes: dict[str, str] = {}  # the graded snapshot's first, then the final file's
+    for model in (snapshot, data.file("world_model.json", WorldModel)):
+        for note in shape_notes(model):
+            shapes.setdefault(note.split(":")[0], f"world_model.json: {note}")
+    notes += shapes.values()
     notes += log_step_notes(o, log)
     notes += query_notes(o)
     for name, parsed in data.files.items():

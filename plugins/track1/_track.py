@@ -108,14 +108,16 @@ class Track1(TrackPlugin[Track1Scenario, Track1Outcome]):
     def verify_files(self, files: Mapping[str, bytes]
                      ) -> tuple[dict[str, ParsedFile], list[FileCheck]]:
         """The default check (``plugins._files.check_files``), and on a world model that
-        passed, a line for each kind of id that is a name, not a number the host gave
-        (``_score.named_id_notes``: the score card says the same)."""
+        passed, a line for each near-miss shape it holds (``_score.shape_notes``) and for
+        each kind of id that is a name, not a number the host gave
+        (``_score.named_id_notes``): the score card says the same."""
         parsed, checks = check_files(self.files, files)
         model = parsed.get("world_model.json")
         if not isinstance(model, WorldModel):
             return parsed, checks
-        notes = [n.removeprefix("world model: ")
-                 for n in _score.named_id_notes(model, split_known=False)]
+        notes = _score.shape_notes(model) + [
+            n.removeprefix("world model: ")
+            for n in _score.named_id_notes(model, split_known=False)]
         return parsed, [c.model_copy(update={"reason": "\n".join(
                             x for x in (c.reason, *notes) if x)})
                         if c.name == "world_model.json" and c.ok and notes else c

@@ -85,6 +85,8 @@ class EpisodeView:
     id: str
     result: EpisodeResult
     organizer: bool
+    #: The scenario's seed where it is public (``run-episode``'s) or for organizers.
+    seed: int | None = None
     last_step: int = 0
     stages: list[dict[str, Any]] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
@@ -122,6 +124,8 @@ def read_episode(folder: Path, *, organizer: bool, public_seed: bool = False) ->
     _snapshots(host, result, view)
     _log_tail(host, result, view)
     if log.scenario is not None:
+        if public_seed or organizer:
+            view.seed = log.scenario.seed
         episode = RecordedEpisode(folder=folder, scenario=log.scenario, organizer=organizer,
                                   public_seed=public_seed)
         plugin = _plugin(log.scenario.track, view)

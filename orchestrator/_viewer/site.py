@@ -1,6 +1,7 @@
 """Writes the static site: an index, a page per team and a page per episode.
 
-    <out>/index.html             the leaderboard (or, with a team, that team's page); for
+    <out>/index.html             the leaderboard (or, with a team, that team's page; for
+                                 a folder of ``run-episode`` results, its episodes); for
                                  organizers, each team's resource disclosure too
     <out>/teams/<team>.html      a team's episodes, each linked
     <out>/episodes/<id>.html     one episode (``write_episode_site``: <out>/index.html)
@@ -60,6 +61,67 @@ def write_episode_site(folder: Path, out: Path, *, organizer: bool = False,
     ``eagc run-episode``'s, a public split's); returns the pages written."""
     view = read_episode(folder, organizer=organizer, public_seed=public_seed)
     return [_write(out / "index.html", episode_page(view, back=None, back_text=""))]
+
+
+def episode_folders(folder: Path) -> list[Path]:
+    """The episode folders under ``folder`` (``<episode>/host/result.json`` at any depth,
+    as ``eagc run-episode --runs-dir`` leaves them), by path."""
+    return sorted(p.parent.parent for p in folder.rglob("host/result.json")
+                  if p.is_file())
+
+
+def write_runs_site(folder: Path, out: Path, *, organizer: bool = False,
+                    say: Callable[[str], None] = lambda _m: None) -> list[Path]:
+    """The pages of the ``run-episode`` results under ``folder`` without a campaign: the
+    team's page as ``out/index.html`` (its episodes by track, each split's mean score)
+    and a page per episode. Their seeds are public: the team chose them. Returns the
+    pages written; UsageError when ``folder`` holds no episode folder."""
+    found = episode_folders(folder)
+    if not found:
+        raise UsageError(f"{folder} is not an episode folder and holds none (an episode "
+                         "folder has host/result.json; run-episode writes them under "
+                         "--runs-dir)")
+    written: list[Path] = []
+    views: list[EpisodeView] = []
+    for path in found:
+        say(path.name)
+        view = read_episode(path, organizer=organizer, public_seed=True)
+        written.append(_write(out / "episodes" / f"{view.id}.html", episode_page(
+            view, back="../index.html", back_text=f"the episodes in {folder.name}")))
+        views.append(view)
+    tracks = []
+    for track in sorted({v.result.track for v in views}):
+        mine = sorted((v for v in views if v.result.track == track),
+                      key=lambda v: (v.result.split, v.result.started_at))
+        components: list[str] = []
+        for v in mine:
+            components += [c for c in v.result.score.components if c not in components]
+        tracks.append({"name": track, "splits": _split_rows(mine),
+                       "components": components,
+                       "episodes": [_run_row(v) for v in mine]})
+    html = _env().get_template("runs.html").render(
+        folder=folder.name or str(folder), tracks=tracks, total=len(views),
+        organizer=organizer)
+    written.append(_write(out / "index.html", html))
+    return written
+
+
+def _run_row(view: EpisodeView) -> dict[str, Any]:
+    r = view.result
+    return {"id": view.id, "page": f"episodes/{view.id}.html", "split": r.split,
+            "seed": view.seed, "image": r.image, "status": r.status.value,
+            "stage": (r.stages_reached or ["none"])[-1], "score": r.score.total,
+            "components": r.score.components}
+
+
+def _split_rows(views: list[EpisodeView]) -> list[dict[str, Any]]:
+    rows = []
+    for split in dict.fromkeys(v.result.split for v in views):
+        scores = [v.result.score.total for v in views if v.result.split == split]
+        done = sum(v.result.failure is None for v in views if v.result.split == split)
+        rows.append({"split": split, "episodes": len(scores), "completed": done,
+                     "mean": sum(scores) / len(scores)})
+    return rows
 
 
 def _columns(board: Leaderboard) -> list[Column]:

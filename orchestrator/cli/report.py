@@ -1,10 +1,13 @@
-"""``eagc report CAMPAIGN.yaml | EPISODE_DIR --out DIR``: the results as static web pages.
+"""``eagc report CAMPAIGN.yaml | RUNS_DIR | EPISODE_DIR --out DIR``: the results as static
+web pages.
 
 Mount with ``app.command("report", epilog=REPORT_CODES)(report_cmd)``. Writes the episode
 viewer's site (``orchestrator._viewer``; docs/viewer.md): for a campaign an index (the
-leaderboard), a page per team and a page per episode; for one episode folder its page as
-``DIR/index.html``. ``--team`` keeps one team's pages only (its page is the index);
-``--organizer`` adds the hidden scenario, which a team must never be sent.
+leaderboard), a page per team and a page per episode; for a folder of ``run-episode``
+results (no campaign) the team's page of those episodes as ``DIR/index.html`` and a page
+per episode; for one episode folder its page as ``DIR/index.html``. ``--team`` keeps one
+team's pages only (its page is the index); ``--organizer`` adds the hidden scenario, which
+a team must never be sent.
 """
 
 from __future__ import annotations
@@ -18,7 +21,8 @@ from rich.console import Console
 from orchestrator.cli.common import ExitCode
 
 REPORT_CODES = ("Exit codes: 0 the pages were written; 1 an error, on one line (no "
-                "results yet); 2 usage error (no such file, folder or team).")
+                "results yet); 2 usage error (no such file, folder or team, no episode in "
+                "the folder).")
 
 out = Console(highlight=False, soft_wrap=True, markup=False)
 notes = Console(stderr=True, highlight=False)
@@ -26,7 +30,8 @@ notes = Console(stderr=True, highlight=False)
 
 def report_cmd(
     source: Annotated[Path, typer.Argument(
-        help="A campaign file (YAML) or one episode folder (runs/<episode>).")],
+        help="A campaign file (YAML), a folder of run-episode results (runs/) or one "
+             "episode folder (runs/<episode>).")],
     out_dir: Annotated[Path, typer.Option("--out", help="Folder for the pages.")],
     team: Annotated[str | None, typer.Option(
         help="Only this team's pages (a campaign): what the team may be sent.")] = None,
@@ -35,17 +40,22 @@ def report_cmd(
                             "only.")] = False,
 ) -> None:
     """Write the results as static web pages that open from disk: the leaderboard, each
-    team's episodes, and each episode's timeline, camera frames, map, files and score."""
+    team's episodes, and each episode's timeline, camera frames, map, files and score.
+    A folder of run-episode results gets the page of its episodes, without a campaign."""
     from orchestrator._errors import UsageError
-    from orchestrator._viewer import write_campaign_site, write_episode_site
-    from orchestrator.cli.common import episode_folder
+    from orchestrator._viewer import write_campaign_site, write_episode_site, write_runs_site
 
     if not source.exists():
         raise UsageError(f"{source} does not exist")
     if source.is_dir():
         if team is not None:
-            raise UsageError("--team is for a campaign, not one episode folder")
-        pages = write_episode_site(episode_folder(source), out_dir, organizer=organizer)
+            raise UsageError("--team is for a campaign, not a folder of episodes")
+        if (source / "host" / "result.json").is_file():
+            pages = write_episode_site(source, out_dir, organizer=organizer)
+        else:
+            with notes.status("writing pages…") as status:
+                pages = write_runs_site(source, out_dir, organizer=organizer,
+                                        say=lambda m: status.update(f"writing {m}"))
     else:
         from orchestrator._campaign.spec import load_campaign, store_path
         from orchestrator._results.store import ResultsStore

@@ -127,6 +127,15 @@ def _hidden_values(episode_dir: Path) -> set[str]:
     return found
 
 
+def _seed(episode_dir: Path) -> int:
+    """The seed the episode's log says it ran."""
+    from mcap.reader import make_reader
+
+    with (episode_dir / "host" / "episode.mcap").open("rb") as f:
+        return int(next(json.loads(m.data)["seed"] for _, _, m in make_reader(
+            f).iter_messages(topics=["/eagc/scenario"])))
+
+
 def _store(campaign: Campaign) -> ResultsStore:
     return ResultsStore(store_path(campaign.spec))
 
@@ -426,6 +435,127 @@ def test_a_track1_episode_page(track1_episode: Path, browser: Browser, shots: Pa
                                  public_seed=False)
     assert not browser.open(page.as_uri())
     assert browser.evaluate("document.querySelectorAll('#map-svg image').length") == 1
+
+
+#: The window a team opens an episode page in: the score and its notes show on load.
+WINDOW = (1280, 900)
+
+
+@pytest.mark.slow
+def test_the_score_and_its_first_note_are_in_view_on_load(
+        track1_episode: Path, browser: Browser, shots: Path, tmp_path: Path) -> None:
+    notes = json.loads((track1_episode / "host" / "result.json").read_text())[
+        "score"]["notes"]
+    assert notes, "the episode of the test has a note on its card"
+    (page,) = write_episode_site(track1_episode, tmp_path / "fold")
+    width, height = WINDOW
+    browser.call("Emulation.setDeviceMetricsOverride", {
+        "width": width, "height": height, "deviceScaleFactor": 1, "mobile": False},
+        session=True)
+    try:
+        assert not browser.open(page.as_uri())
+        got = browser.evaluate(
+            "(() => { const box = e => { const r = e.getBoundingClientRect();"
+            " return [r.top, r.bottom, e.textContent.trim()]; };"
+            " return [window.innerWidth, window.innerHeight, window.scrollY,"
+            " box(document.getElementById('score')),"
+            " box(document.querySelector('#notes li'))]; })()")
+        print(f"\nscreenshot (episode, {width}x{height}): "
+              f"{browser.screenshot(shots / 'episode-fold.png')}")
+    finally:
+        browser.call("Emulation.clearDeviceMetricsOverride", session=True)
+    (w, h, scrolled, score, note) = got
+    assert (w, h, scrolled) == (width, height, 0)
+    assert 0 <= score[0] and score[1] <= height, (score, height)
+    assert score[2] == _pct(track1_episode)
+    assert 0 <= note[0] and note[1] <= height, (note, height)
+    assert note[2] == notes[0]
+
+
+def _pct(episode: Path) -> str:
+    total = json.loads((episode / "host" / "result.json").read_text())["score"]["total"]
+    return f"{100 * total:.1f}"
+
+
+# ------------------------------------------------------ run-episode folders, no campaign
+CRASH = "python -c 'import sys; print(\"bad agent\"); sys.exit(7)'"
+
+
+@pytest.mark.slow
+def test_a_folder_of_run_episode_results_gets_a_team_page_without_a_campaign(
+        track1_episode: Path, browser: Browser, shots: Path) -> None:
+    """What a team has after a few ``eagc run-episode`` calls (two sanity seeds, an agent
+    that crashes, a Track 1 episode, a preview beside them), as ``eagc report``'s pages."""
+    import shutil
+
+    runs = Path(tempfile.mkdtemp(prefix="eagc-vr-", dir="/tmp"))  # short: unix sockets
+    try:
+        _run_episode_folder(runs, track1_episode, browser, shots)
+    finally:
+        shutil.rmtree(runs, ignore_errors=True)
+
+
+def _run_episode_folder(runs: Path, track1_episode: Path, browser: Browser,
+                        shots: Path) -> None:
+    import shutil
+
+    runner = CliRunner()
+    for seed, image, code in ((3, SANITY, 0), (11, SANITY, 0), (5, CRASH, 4)):
+        got = runner.invoke(app, ["run-episode", "sanity", "--runtime", "local",
+                                  "--image", image, "--seed", str(seed), "--runs-dir",
+                                  str(runs), "--max-steps", "300"])
+        assert got.exit_code == code, got.output
+    shutil.copytree(track1_episode, runs / track1_episode.name)
+    (runs / "previews").mkdir()
+    (runs / "previews" / "track1-standard-seed0.png").write_bytes(b"\x89PNG")
+    results = {p.parent.parent.name: json.loads(p.read_text())
+               for p in runs.glob("*/host/result.json")}
+    assert len(results) == 4
+    out = runs / "site"
+    got = runner.invoke(app, ["report", str(runs), "--out", str(out)])
+    assert got.exit_code == 0, got.output
+    assert got.output.splitlines()[-1].strip() == str(out / "index.html")
+    assert f"{len(results) + 1} pages written" in got.output
+    assert {p.stem for p in (out / "episodes").glob("*.html")} == set(results)
+    _open_all(browser, out)
+
+    browser.open((out / "index.html").as_uri())
+    rows = browser.evaluate(
+        "Array.from(document.querySelectorAll('table.episodes tbody tr')).map(r =>"
+        " [r.querySelector('a').getAttribute('href'),"
+        " ...Array.from(r.cells).map(c => c.textContent.trim())])")
+    assert sorted(r[1] for r in rows) == sorted(results)
+    for href, episode, split, seed, image, verdict, stage, score, *_ in rows:
+        r = results[episode]
+        assert href == f"episodes/{episode}.html" and (out / href).is_file()
+        assert (split, image, verdict) == (r["split"], r["image"], r["status"])
+        assert score == f"{100 * r['score']['total']:.1f}"
+        assert stage == (r["stages_reached"] or ["none"])[-1]
+        assert seed == str(_seed(runs / episode))
+    assert sorted(int(r[3]) for r in rows if r[4] != TRACK1) == [3, 5, 11]
+    assert [r[5] for r in rows if r[4] == CRASH] == ["agent_crash"]
+    assert [r[5] for r in rows if r[4] == SANITY] == ["completed"] * 2
+    tracks = browser.evaluate("Array.from(document.querySelectorAll('h2'))"
+                              ".map(h => h.textContent.trim())")
+    assert tracks == sorted({r["track"] for r in results.values()}) == ["sanity", "track1"]
+    splits = browser.evaluate(
+        "Array.from(document.querySelectorAll('table.splits tbody tr')).map(r =>"
+        " Array.from(r.cells).map(c => c.textContent.trim()))")
+    sanity = [r for r in results.values() if r["track"] == "sanity"]
+    mean = sum(r["score"]["total"] for r in sanity) / len(sanity)
+    done = sum(r["failure"] is None for r in sanity)
+    assert ["standard", "3", str(done), f"{100 * mean:.1f}"] in splits
+    print(f"\nscreenshot (run-episode folder): "
+          f"{browser.screenshot(shots / 'runs.png')}")
+    # An episode's page leads back to the folder's page.
+    browser.open((out / rows[0][0]).as_uri())
+    assert browser.evaluate("document.querySelector('a').getAttribute('href')") == \
+        "../index.html"
+
+    got = runner.invoke(app, ["report", str(runs), "--team", "x", "--out", str(out)])
+    assert got.exit_code == 2 and "--team is for a campaign" in got.output
+    got = runner.invoke(app, ["report", str(runs / "previews"), "--out", str(out)])
+    assert got.exit_code == 2 and "holds none" in got.output, got.output
 
 
 def test_the_wheel_carries_the_templates(tmp_path: Path) -> None:

@@ -44,8 +44,9 @@ from simhost.host import StageSpec
 DOC = Path(schemas.__file__).with_name("PROTOCOL.md")
 _ROOT = DOC.parent.parent
 #: Every page with generated sections: the protocol page (which also gets a section per
-#: installed track) and the contract (its environment table and the client's types).
-PAGES = (DOC, _ROOT / "docs" / "contract.md")
+#: installed track), the contract (its environment table and the client's types) and the
+#: commands (what ``run-episode --json`` prints).
+PAGES = (DOC, _ROOT / "docs" / "contract.md", _ROOT / "docs" / "commands.md")
 #: Scenarios sampled per split (seeds and indexes 0..SAMPLES-1).
 SAMPLES = 5
 _TRACKS_END = "<!-- end tracks -->"
@@ -82,8 +83,10 @@ def type_name(t: Any) -> str:
         return f"list of {type_name(args[0])}"
     if origin is dict:
         return "object"
-    if isinstance(t, type) and issubclass(t, Enum):
+    if t is proto.EndReason:
         return "string (an end reason)"
+    if isinstance(t, type) and issubclass(t, Enum):
+        return " \\| ".join(json.dumps(m.value) for m in t)
     if isinstance(t, type) and issubclass(t, BaseModel):
         return t.__name__
     return _SIMPLE.get(t, getattr(t, "__name__", str(t)))
@@ -110,7 +113,7 @@ def model_table(model: type[BaseModel]) -> str:
         else:
             default = f"`{json.dumps(f.default)}`"
         kind = type_name(f.annotation)
-        if name == "kind":
+        if name == "kind" and not f.is_required():  # a message's tag
             kind = f"`{json.dumps(f.default)}`"
         rows.append(f"| `{name}` | {kind} | {default} | {_cell(f.description or '')} |")
     return "\n".join(rows)
@@ -121,6 +124,8 @@ REQUESTS = (proto.Hello, proto.Reset, proto.Step, proto.Answer, proto.EndStage)
 REPLIES = (proto.HelloReply, proto.ObservationReply, proto.ErrorReply)
 PARTS = (proto.TensorMeta, proto.FieldSpec, proto.StageInfo, proto.HostMessage,
          proto.ActionResult)
+#: The parts of replies a ``TimeStep`` and ``RemoteEnv`` hand over, tabled in the contract.
+CLIENT_PARTS = (proto.StageInfo, proto.FieldSpec, proto.ActionResult, proto.HostMessage)
 #: The requests the host's step count counts (``SimHost._step``); a test plays the others
 #: through a real host and checks they leave the count alone.
 COUNTED = ("step",)
@@ -251,8 +256,10 @@ def client_section() -> str:
         fn = getattr(agent.RemoteEnv, name)
         remote.append(f"| `{_cell(_signature(fn))}` | {_cell(_first_line(fn.__doc__))} |")
     for name in ("observation_spec", "action_spec", "stages"):
-        said = proto.HelloReply.model_fields[name].description or ""
-        remote.append(f"| `.{name}` | {_cell(said.rstrip('.'))} (from the hello reply) |")
+        f = proto.HelloReply.model_fields[name]
+        said = (f.description or "").rstrip(".")
+        remote.append(f"| `.{name}` | {_cell(said)}: a {type_name(f.annotation)} (from the "
+                      "hello reply) |")
     hints = get_type_hints(agent.TimeStep)
     reply = proto.ObservationReply.model_fields
     fields = ["| field | type | meaning |", "|---|---|---|"]
@@ -266,12 +273,35 @@ def client_section() -> str:
     for name in ("write", "log", "close"):
         fn = getattr(agent.OutputFiles, name)
         files.append(f"| `{_cell(_signature(fn))}` | {_cell(_first_line(fn.__doc__))} |")
+    parts = []
+    for m in CLIENT_PARTS:
+        parts += [f"`{m.__name__}` — {_cell(_first_line(m.__doc__))}", "", model_table(m), ""]
     return "\n".join([
         f"`RemoteEnv` — {_cell(_first_line(agent.RemoteEnv.__doc__))}", "", *remote, "",
         f"`TimeStep` — {_cell(_first_line(agent.TimeStep.__doc__))} "
         "`ts.message(type)` gives the first host message of a type.", "", *fields, "",
+        "The parts these hold (`schemas`; the same tables as in `schemas/PROTOCOL.md`). "
+        "`ActionResult` is all the protocol says of an action; a track's own account of "
+        "it, where it has one, is an observation entry (Track 1: `action_result`, with "
+        "the primitive and `collided`; each track's section of `schemas/PROTOCOL.md`).",
+        "", *parts,
         f"`OutputFiles` — {_cell(_first_line(agent.OutputFiles.__doc__))}", "", *files,
     ]) + "\n"
+
+
+def episode_result_section() -> str:
+    """What ``eagc run-episode --json`` prints: one ``schemas.EpisodeResult``, every model
+    it holds with its fields."""
+    out = ["`eagc run-episode … --json` prints one JSON object, an `EpisodeResult` "
+           "(`schemas.EpisodeResult`, JSON Schema "
+           "[`schemas/json/episode_result.json`](../schemas/json/episode_result.json)); "
+           "the exit code is the command's (0: the episode completed). The models it "
+           "holds:", ""]
+    for m in _parts(schemas.EpisodeResult):
+        said = _first_line(m.__doc__)
+        out += [f"`{m.__name__}`" + (f" — {_cell(said)}" if said else ""), "",
+                model_table(m), ""]
+    return "\n".join(out)
 
 
 # ---------------------------------------------------------------------- track sections
@@ -412,14 +442,40 @@ def fields_table(models: Iterable[type[BaseModel]]) -> str:
     return "\n".join(rows)
 
 
+def split_signs(names: dict[str, set[str]]) -> list[str]:
+    """How an agent tells the splits apart from the hello reply's specs: each entry that
+    some splits have and others lack (``names``: split → the entry names of its sampled
+    specs). Empty when every split has the same entries."""
+    splits = list(names)
+    every = set.intersection(*names.values()) if names else set()
+    where: dict[str, list[str]] = {}
+    for split in splits:
+        for n in sorted(names[split] - every):
+            where.setdefault(n, []).append(split)
+    if not where:
+        return []
+    groups: dict[tuple[str, ...], list[str]] = {}
+    for n, on in where.items():
+        groups.setdefault(tuple(on), []).append(n)
+    said = "; ".join(", ".join(f"`{n}`" for n in ns) + " only on "
+                     + ", ".join(f"`{s}`" for s in on) for on, ns in groups.items())
+    return [
+        "Which split an episode plays is never sent (nor in the environment); the hello "
+        "reply's specs tell the splits apart (`RemoteEnv.observation_spec`, "
+        "`.action_spec`): " + said + ".", ""]
+
+
 def track_section(name: str) -> str:
     plugin = load_track(name)
     observations: dict[str, str] = {}
     actions: dict[str, str] = {}
+    entries: dict[str, set[str]] = {}
     for split in plugin.split_names():
         obs, act = sample_specs(plugin, split)
         observations[split] = spec_table(obs, observation=True)
         actions[split] = spec_table(act, observation=False)
+        entries[split] = {f"{f.name}" for spec in obs for f in spec} | {
+            f"{f.name} (action)" for spec in act for f in spec}
     extra = [s for s in plugin.split_names() if s not in plugin.splits]
     files = ["| file | schema | required |", "|---|---|---|"]
     for fname, rule in plugin.files.items():
@@ -444,6 +500,7 @@ def track_section(name: str) -> str:
         "",
         *([next(iter(actions.values())), ""] if len(set(actions.values())) == 1
           else _by_split(actions, "Action")),
+        *split_signs(entries),
         "Files collected from `/output` (checked against their schema):",
         "",
         "\n".join(files),
@@ -473,6 +530,7 @@ def sections(tracks: Iterable[str] | None = None) -> dict[str, Callable[[], str]
         "environment": environment_section,
         "log-steps": log_steps_section,
         "client": client_section,
+        "episode-result": episode_result_section,
     }
     for t in sorted(tracks if tracks is not None else available_tracks()):
         out[f"track:{t}"] = lambda t=t: track_section(t)

@@ -1,6 +1,7 @@
 """Track 2's words on the protocol page (``Track2.vocabulary``): the demonstration packet's
-arrays, the task-model names per family (from the truths of sampled instances: what
-``task_model.json`` is compared with) and how values are compared."""
+arrays, which ``parts`` row each annotation's part names, the task-model names per family
+(from the truths of sampled instances: what ``task_model.json`` is compared with), the
+constraints' value types and units, and how values are compared."""
 
 from __future__ import annotations
 
@@ -18,6 +19,162 @@ from plugins.track2._scenario import Track2Scenario
 #: Instances sampled (seeds and indexes 0..SAMPLES-1): one of each family, as the index
 #: balances them.
 SAMPLES = 5
+#: The unit of each numeric constraint (the code holds values, not units); a test checks
+#: that every numeric constraint of every family has one.
+UNITS: dict[str, str] = {
+    "clearance": "m", "yaw_symmetry": "rad", "hole_depth": "m", "max_grip_width": "m",
+    "grasp_symmetry": "rad", "turn_angle": "rad", "angle_tolerance": "rad",
+    "n_parts": "count", "part_half_widths": "m", "part_height": "m",
+    "tray_clearance": "m", "xy_tolerance": "m", "yaw_tolerance": "rad", "stack_yaw": "rad",
+    "joint_range": "m (prismatic) or rad (revolute)",
+    "opening_tolerance": "fraction of the range (0 closed, 1 open)",
+    "tool_slot": "index (0 or 1)", "tool_length": "m", "well_depth": "m",
+    "well_width": "m", "press_depth": "m", "goal_tolerance": "m",
+}
+
+
+def variants(family: str) -> list[Any]:
+    """The family's source instance and, for each choice of a parameter with choices,
+    the source with that one choice changed (every kind of instance at least once)."""
+    from simhost.worlds.track2 import PARAM_TABLES, InstanceParams, default_source
+
+    source = default_source(family)
+    out = [source]
+    for spec in PARAM_TABLES[family]:
+        for choice in spec.choices[1:]:
+            values = source.model_dump()
+            values[spec.group][spec.name] = choice
+            out.append(InstanceParams.model_validate(values))
+    return out
+
+
+def part_rows() -> tuple[dict[str, tuple[str, ...]], dict[str, dict[str, set[str]]]]:
+    """Each family's ``parts`` rows in order, and family → part name of the annotations
+    and of the truth's variables → the ``parts`` rows it is, found by playing the
+    scripted expert on every variant (``dev``, exact): a loose part by its body, a part
+    being grasped by the rows the gripper holds, else a body or joint of that name."""
+    from simhost.worlds.track2 import FAMILIES, task_truth
+    from simhost.worlds.track2._env import BenchEnv
+    from simhost.worlds.track2._expert import ScriptedExpert
+
+    order: dict[str, tuple[str, ...]] = {}
+    out: dict[str, dict[str, set[str]]] = {}
+    for family in FAMILIES:
+        found = out.setdefault(family, {})
+        for params in variants(family):
+            env = BenchEnv(params, split="dev")
+            try:
+                env.reset(seed=0)
+                task, model = env.task, env.model
+                order[family] = tuple(task.part_names)
+                rows = {ref[1]: n for n, ref in zip(task.part_names, task.row_refs(),
+                                                    strict=True)
+                        if ref is not None and ref[0] == "body"}
+
+                names = {v.part for v in task_truth(params, env.config).state_variables
+                         if v.part is not None}
+                held: dict[str, set[str]] = {}
+                expert = ScriptedExpert(env)
+                for _ in range(env.max_steps):
+                    for key, on in task.evaluate().flags.items():
+                        event, name = key.split(":", 1)
+                        names.add(name)
+                        if on and event == "grasped":
+                            held.setdefault(name, set()).update(
+                                r for b, r in rows.items() if env.sim.grasping(b))
+                    _, _, over, cut, _ = env.step(expert())
+                    if over or cut:
+                        break
+                for name in names:
+                    body: int | None = task.loose_parts().get(name)
+                    for kind in ("body", "joint"):
+                        if body is None:
+                            try:
+                                item = getattr(model, kind)(name)
+                            except KeyError:
+                                continue
+                            body = int(item.id if kind == "body" else item.bodyid[0])
+                    got = ({_row(model, rows, body)} if body is not None
+                           else held.get(name, set()))
+                    found.setdefault(name, set()).update(r for r in got if r is not None)
+            finally:
+                env.close()
+    return order, out
+
+
+def _row(model: Any, rows: dict[int, str], body: int) -> str | None:
+    """The row of ``body`` or of the nearest body it hangs from."""
+    while body > 0 and body not in rows:
+        body = int(model.body_parentid[body])
+    return rows.get(body)
+
+
+def part_rows_lines() -> list[str]:
+    """The table of ``part_rows``, with each family's row order."""
+    order, found = part_rows()
+    rows = ["| family | `parts` rows, in order | part names → row |", "|---|---|---|"]
+    for family, names in found.items():
+        pairs = ", ".join(f"`{n}` → " + " or ".join(f"`{r}`" for r in sorted(rs))
+                          for n, rs in sorted(names.items()) if rs)
+        rows.append(f"| `{family}` | " + ", ".join(f"`{r}`" for r in order[family])
+                    + f" | {pairs} |")
+    return [
+        "Part names: the demonstration's annotations (`events[].part` of `manifest.json`) "
+        "and `task_model.json` (`StateVariable.part`, the variables' and predicates' "
+        "names) name a task's parts in the task's words (`drawer`, `tool`, `button`); the "
+        "observation's `parts` tensor and the packet's `obs_parts` have one row per part "
+        "in the family's order (the `rows` of `observation_spec.parts` in the manifest). "
+        "Which row each name is (found by playing the scripted expert on every kind of "
+        "instance; `tool` is the useful tool and `wrong_tool` the other, in the slots the "
+        "instance puts them):",
+        "",
+        *rows,
+        "",
+    ]
+
+
+def constraint_lines() -> list[str]:
+    """Each family's constraints: the JSON type of its value, its unit (``UNITS``) and
+    the values it takes over every variant."""
+    from simhost.worlds.track2 import FAMILIES, split_config, task_truth
+
+    config = split_config("standard").bench
+    rows = ["| family | constraint | value | unit | values seen |", "|---|---|---|---|---|"]
+    for family in FAMILIES:
+        seen: dict[str, list[Any]] = {}
+        for params in variants(family):
+            for c in task_truth(params, config).constraints:
+                if c.value not in seen.setdefault(c.name, []):
+                    seen[c.name].append(c.value)
+        for name, values in seen.items():
+            kind = _json_type(values[0])
+            unit = UNITS.get(name, "") if kind not in ("string", "boolean") else ""
+            shown = ", ".join(f"`{json.dumps(v)}`" for v in values[:4])
+            rows.append(f"| `{family}` | `{name}` | {kind} | {unit or '—'} | {shown} |")
+    return [
+        "Constraint values (`task_model.json`'s `constraints[].value`): their JSON type "
+        "and unit, and the values they take over every kind of instance of the official "
+        "splits' source (an instance's numbers vary around these):",
+        "",
+        *rows,
+        "",
+    ]
+
+
+def _json_type(value: Any) -> str:
+    if isinstance(value, bool):
+        return "boolean"
+    if isinstance(value, int):
+        return "integer"
+    if isinstance(value, float):
+        return "number"
+    if isinstance(value, str):
+        return "string"
+    if isinstance(value, list | tuple):
+        inner = {_json_type(v) for v in value}
+        return "list of " + ("numbers" if inner <= {"integer", "number"} else
+                             " or ".join(sorted(inner)) + "s")
+    return "object"
 
 
 def vocabulary(plugin: TrackPlugin[Track2Scenario, Any]) -> str:
@@ -49,11 +206,13 @@ def vocabulary(plugin: TrackPlugin[Track2Scenario, Any]) -> str:
     weights = ", ".join(f"{k} {w:g}" for k, w in _scoring.MODEL_WEIGHTS.items())
     return "\n".join([
         *packet_keys(plugin, split),
+        *part_rows_lines(),
         f"Task-model names per family (the truths of sampled `{split}` instances; "
         "`simhost.worlds.track2.task_truth`): a model of another family scores 0.",
         "",
         *rows,
         "",
+        *constraint_lines(),
         "How a model is compared with the truth (`plugins.track2._scoring`, weights "
         f"`MODEL_WEIGHTS`: {weights}): {rule.removeprefix('``task_model``: ')}",
         "",

@@ -146,7 +146,8 @@ def test_a_skill_fails_with_the_hosts_reason_and_acts_when_it_can(
     # The skills' own reasons, without a step.
     assert got["place_unheld"] == {"status": "failed", "reason": "not_holding",
                                    "by_host": False, "steps": 0,
-                                   "target": got["place_unheld"]["target"]}
+                                   "target": got["place_unheld"]["target"],
+                                   "locked": [], "unavailable": []}
     assert got["unknown"]["reason"] == "not_in_model" and got["unknown"]["steps"] == 0
     # And what it can do, it does.
     assert got["fetch"]["status"] == "done" and got["held"] == got["item"], got

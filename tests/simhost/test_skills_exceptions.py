@@ -30,8 +30,8 @@ from simhost.client.skills import (
     Outcome,
     Skills,
     WorldModel,
+    near,
 )
-from simhost.client.skills._navigation import near
 from simhost.worlds.track1 import house_split
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))

@@ -132,8 +132,8 @@ def _episode(result: EpisodeResult, index: int) -> TeamEpisode:
         stage_reached=stage, limit_hit=f.limit_hit if f else None,
         exit_code=f.exit_code if f else None, oom_killed=f.oom_killed if f else False,
         message=f.message if f else "completed",
-        file_problems=tuple(f"{c.name}: {line}" for c in result.files if not c.ok
-                            for line in file_lines(c.reason) or ["rejected"]),
+        file_problems=tuple(f"{c.name}: {line}" for c in result.files
+                            for line in file_lines(c.reason) or ([] if c.ok else ["rejected"])),
         agent_output=_agent_output(result))
 
 

@@ -47,7 +47,9 @@ def test_a_ported_world_model_is_graded_and_its_unknown_keys_listed() -> None:
         assert key in ignored
     note = ignored_note("world_model.json", model)
     assert note is not None and "agent_state" in note and "objects.*.name" in note
-    assert "rooms.* (rooms 0-1)" in note, "rooms (not graded) unreadable: left out, listed"
+    assert "rooms" not in note, "rooms as names: a near-miss note, not an unreadable key"
+    assert model.near_miss_notes()[0].startswith(
+        'rooms: 2 of 2 entries are names, not objects ("kitchen", "hallway")')
 
 
 def test_the_track1_check_and_score_grade_the_ported_file() -> None:

@@ -147,7 +147,10 @@ class DockerRuntime(AgentRuntime):
         self.client = client or docker_client()
         self.cpuset = cpuset
 
-    def start(self, launch: AgentLaunch) -> AgentHandle:
+    def container_options(self, launch: AgentLaunch) -> dict[str, Any]:
+        """The engine's options for ``launch``'s container (``containers.create``/``run``
+        keyword arguments, the image aside): the sandbox, the limits, the mounts, and a
+        device request for the GPUs in ``launch.limits.gpus``."""
         import docker
 
         lim = launch.limits
@@ -171,6 +174,35 @@ class DockerRuntime(AgentRuntime):
             device_requests.append(
                 docker.types.DeviceRequest(device_ids=list(lim.gpus), capabilities=[["gpu"]])
             )
+        return dict(
+            name=f"eagc-{launch.episode}",
+            network_mode="none",
+            read_only=True,
+            user=f"{CONTAINER.uid}:{CONTAINER.uid}",
+            cap_drop=["ALL"],
+            security_opt=["no-new-privileges"],
+            pids_limit=lim.pids,
+            mem_limit=f"{lim.memory_mb}m",
+            memswap_limit=f"{lim.memory_mb}m",
+            nano_cpus=int(lim.cpus * 1e9),
+            cpuset_cpus=launch.cpuset or self.cpuset,
+            tmpfs={"/tmp": f"rw,nosuid,nodev,size={lim.tmp_mb}m,mode=1777"},
+            volumes=volumes,
+            environment=env,
+            labels=labels,
+            log_config=docker.types.LogConfig(
+                type="json-file", config={"max-size": f"{lim.log_mb}m", "max-file": "1"}
+            ),
+            device_requests=device_requests or None,
+            ipc_mode="private",
+            stdin_open=False,
+            tty=False,
+        )
+
+    def start(self, launch: AgentLaunch) -> AgentHandle:
+        import docker
+
+        lim = launch.limits
         try:
             # Never pull: images reach nodes as `docker save` archives, and no registry is
             # reachable anyway. A missing image is the submission's fault.
@@ -181,31 +213,7 @@ class DockerRuntime(AgentRuntime):
             raise InfraError(f"engine error looking up {launch.image!r}: {e}") from e
         try:
             container = self.client.containers.run(
-                launch.image,
-                detach=True,
-                name=f"eagc-{launch.episode}",
-                network_mode="none",
-                read_only=True,
-                user=f"{CONTAINER.uid}:{CONTAINER.uid}",
-                cap_drop=["ALL"],
-                security_opt=["no-new-privileges"],
-                pids_limit=lim.pids,
-                mem_limit=f"{lim.memory_mb}m",
-                memswap_limit=f"{lim.memory_mb}m",
-                nano_cpus=int(lim.cpus * 1e9),
-                cpuset_cpus=launch.cpuset or self.cpuset,
-                tmpfs={"/tmp": f"rw,nosuid,nodev,size={lim.tmp_mb}m,mode=1777"},
-                volumes=volumes,
-                environment=env,
-                labels=labels,
-                log_config=docker.types.LogConfig(
-                    type="json-file", config={"max-size": f"{lim.log_mb}m", "max-file": "1"}
-                ),
-                device_requests=device_requests or None,
-                ipc_mode="private",
-                stdin_open=False,
-                tty=False,
-            )
+                launch.image, detach=True, **self.container_options(launch))
         except docker.errors.ImageNotFound as e:
             raise AgentStartError(f"image {launch.image!r} not found on this node") from e
         except docker.errors.APIError as e:

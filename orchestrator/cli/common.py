@@ -1,6 +1,6 @@
 """What every ``eagc`` command shares: exit codes, one-line errors, checked arguments.
 
-Exit codes (``eagc --help`` and the README show the same table)::
+Exit codes (``eagc --help`` and docs/commands.md show the same table)::
 
     0    success (run-episode: the episode completed)
     1    an error, printed on one line (a file that does not validate, no Docker engine,

@@ -1,7 +1,7 @@
 """The ``eagc`` command line.
 
 Every command ends in one line when something is wrong, never a traceback, with the exit
-codes of ``orchestrator.cli.common`` (shown by ``eagc --help`` and in the README).
+codes of ``orchestrator.cli.common`` (shown by ``eagc --help`` and in docs/commands.md).
 """
 
 from __future__ import annotations

@@ -123,15 +123,16 @@ def test_unknown_command_and_option_are_one_line() -> None:
     assert code == ExitCode.USAGE and "--sead" in _one_error_line(err)
 
 
-def test_exit_codes_are_in_the_help_and_the_readme() -> None:
+def test_exit_codes_are_in_the_help_and_the_commands_page() -> None:
     _, out, _ = _eagc("run-episode", "--help", COLUMNS="200")
     assert "0 the episode completed" in out and "3 infrastructure failure" in out
     assert "4 the agent failed" in out and "2 usage" in out
     _, out, _ = _eagc("--help", COLUMNS="200")
     assert "Exit codes:" in out
-    readme = (REPO / "README.md").read_text()
+    page = (REPO / "docs" / "commands.md").read_text()
     for code in ExitCode:
-        assert f"| {int(code)} |" in readme, f"exit code {int(code)} is not in the README"
+        assert f"| {int(code)} |" in page, f"exit code {int(code)} is not in docs/commands.md"
+    assert "docs/commands.md#exit-codes" in (REPO / "README.md").read_text()
 
 
 def test_an_unexpected_exception_is_one_line_and_keeps_its_traceback() -> None:

@@ -366,20 +366,29 @@ def _budget(seconds: float) -> str:
     return f"{seconds:g} s"
 
 
-def stages_table(stages: list[StageSpec]) -> str:
+def stages_table(stages: list[StageSpec],
+                 caps: dict[str, list[int]] | None = None) -> str:
+    """The stages; ``caps``: the step caps episodes announced at ``hello``, by stage (those
+    of the official splits' sampled scenarios), shown where the stage has none of its
+    own."""
     rows = ["| # | stage | official budget | step cap | the robot may move | what happens |",
             "|---|---|---|---|---|---|"]
     for i, s in enumerate(stages):
         cap = "" if s.max_steps is None else str(s.max_steps)
+        seen = (caps or {}).get(s.name)
+        if not cap and seen:
+            cap = (f"per episode, {min(seen)}–{max(seen)} sampled (`max_steps` at `hello`)"
+                   if min(seen) != max(seen) else f"{seen[0]} (`max_steps` at `hello`)")
         rows.append(f"| {i} | `{s.name}` | {_budget(s.budget_s)} | {cap or '—'} | "
                     f"{'yes' if s.allows_motion else 'no'} | {_cell(s.description)} |")
     return "\n".join(rows)
 
 
 def sample_specs(
-    plugin: TrackPlugin, split: str
+    plugin: TrackPlugin, split: str, caps: dict[str, list[int]] | None = None
 ) -> tuple[list[tuple[proto.FieldSpec, ...]], list[tuple[proto.FieldSpec, ...]]]:
-    """The observation and action specs of ``SAMPLES`` scenarios of ``split``."""
+    """The observation and action specs of ``SAMPLES`` scenarios of ``split``; ``caps``
+    gathers each stage's step cap as the episodes announce it."""
     observations, actions = [], []
     for i in range(SAMPLES):
         scenario = plugin.make_scenario(seed=i, split=split, params={}, index=i)
@@ -387,6 +396,10 @@ def sample_specs(
         try:
             observations.append(tuple(episode.observation_spec))
             actions.append(tuple(episode.action_spec))
+            for stage in plugin.stages():
+                cap = episode.step_budget(stage.name)
+                if caps is not None and cap is not None:
+                    caps.setdefault(stage.name, []).append(cap)
         finally:
             episode.close()
     return observations, actions
@@ -470,8 +483,9 @@ def track_section(name: str) -> str:
     observations: dict[str, str] = {}
     actions: dict[str, str] = {}
     entries: dict[str, set[str]] = {}
+    caps: dict[str, list[int]] = {}
     for split in plugin.split_names():
-        obs, act = sample_specs(plugin, split)
+        obs, act = sample_specs(plugin, split, caps if split in plugin.splits else None)
         observations[split] = spec_table(obs, observation=True)
         actions[split] = spec_table(act, observation=False)
         entries[split] = {f"{f.name}" for spec in obs for f in spec} | {
@@ -491,7 +505,7 @@ def track_section(name: str) -> str:
         f"Stages, in order (`{type(plugin).__name__}.stages()`; a campaign may scale the "
         "budgets, and an episode may announce smaller step caps at `hello`):",
         "",
-        stages_table(plugin.stages()),
+        stages_table(plugin.stages(), caps),
         "",
         *([f"Public extra split{'s' if len(extra) > 1 else ''}, outside the final score: "
            + ", ".join(f"`{s}`" for s in extra) + ".", ""] if extra else []),

@@ -188,7 +188,9 @@ class HostMessage(_Frozen):
         "attempt_result",
         "exception",
         "notice",
-    ] = Field(description="What kind of message; each track's page says which it sends.")
+    ] = Field(description="What kind of message; each track's page says which it sends "
+              "(`exception` is reserved: no track sends it, a controlled exception shows "
+              "only through its effects).")
     data: dict[str, Any] = Field(default_factory=dict, description="Its content.")
 
 

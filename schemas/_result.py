@@ -114,7 +114,8 @@ class EpisodeResult(_Frozen):
 
     episode: str = Field(description="Opaque episode id (also the agent's).")
     track: str = Field(description="The track (sanity, track1, track2).")
-    split: str = Field(description="dev, standard or challenge.")
+    split: str = Field(description="The split played (standard, challenge; dev and the "
+                       "tracks' public extra splits, e.g. vision).")
     image: str = Field(description="The agent's image (or command, for --runtime local).")
     runtime: str = Field(description="docker, or local (development only, no sandbox).")
     status: EpisodeStatus = Field(description="How it ended: completed, or why not.")

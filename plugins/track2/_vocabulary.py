@@ -36,15 +36,21 @@ UNITS: dict[str, str] = {
 def variants(family: str) -> list[Any]:
     """The family's source instance and, for each choice of a parameter with choices,
     the source with that one choice changed (every kind of instance at least once)."""
+    return [params for _, params in labelled_variants(family)]
+
+
+def labelled_variants(family: str) -> list[tuple[str, Any]]:
+    """``variants`` with what each changes (``""`` for the source, else
+    ``"name: choice"``)."""
     from simhost.worlds.track2 import PARAM_TABLES, InstanceParams, default_source
 
     source = default_source(family)
-    out = [source]
+    out: list[tuple[str, Any]] = [("", source)]
     for spec in PARAM_TABLES[family]:
         for choice in spec.choices[1:]:
             values = source.model_dump()
             values[spec.group][spec.name] = choice
-            out.append(InstanceParams.model_validate(values))
+            out.append((f"{spec.name}: {choice}", InstanceParams.model_validate(values)))
     return out
 
 
@@ -53,9 +59,7 @@ def part_rows() -> tuple[dict[str, tuple[str, ...]], dict[str, dict[str, set[str
     and of the truth's variables → the ``parts`` rows it is, found by playing the
     scripted expert on every variant (``dev``, exact): a loose part by its body, a part
     being grasped by the rows the gripper holds, else a body or joint of that name."""
-    from simhost.worlds.track2 import FAMILIES, task_truth
-    from simhost.worlds.track2._env import BenchEnv
-    from simhost.worlds.track2._expert import ScriptedExpert
+    from simhost.worlds.track2 import FAMILIES, BenchEnv, ScriptedExpert, task_truth
 
     order: dict[str, tuple[str, ...]] = {}
     out: dict[str, dict[str, set[str]]] = {}
@@ -114,8 +118,9 @@ def part_rows_lines() -> list[str]:
     order, found = part_rows()
     rows = ["| family | `parts` rows, in order | part names → row |", "|---|---|---|"]
     for family, names in found.items():
-        pairs = ", ".join(f"`{n}` → " + " or ".join(f"`{r}`" for r in sorted(rs))
-                          for n, rs in sorted(names.items()) if rs)
+        pairs = ", ".join(f"`{n}` → " + (
+            "the other tool's row" if n == "wrong_tool" else
+            " or ".join(f"`{r}`" for r in sorted(rs))) for n, rs in sorted(names.items()) if rs)
         rows.append(f"| `{family}` | " + ", ".join(f"`{r}`" for r in order[family])
                     + f" | {pairs} |")
     return [
@@ -125,8 +130,9 @@ def part_rows_lines() -> list[str]:
         "observation's `parts` tensor and the packet's `obs_parts` have one row per part "
         "in the family's order (the `rows` of `observation_spec.parts` in the manifest). "
         "Which row each name is (found by playing the scripted expert on every kind of "
-        "instance; `tool` is the useful tool and `wrong_tool` the other, in the slots the "
-        "instance puts them):",
+        "instance). `tool_use`: `tool` is the useful tool, in the slot its constraint "
+        "`tool_slot` names (0: rows `tool_a`, `tool_a_tip`; 1: `tool_b`, `tool_b_tip`), "
+        "and `wrong_tool` the distractor in the other slot:",
         "",
         *rows,
         "",
@@ -179,21 +185,28 @@ def _json_type(value: Any) -> str:
 
 def vocabulary(plugin: TrackPlugin[Track2Scenario, Any]) -> str:
     """The Markdown that ends Track 2's section of the protocol page."""
-    from simhost.worlds.track2 import task_truth
+    from simhost.worlds.track2 import FAMILIES, split_config, task_truth
 
     split = next(iter(plugin.splits))
-    truths: dict[str, Any] = {}
-    for i in range(SAMPLES):
-        s = Track2Scenario.of(plugin.make_scenario(
-            seed=i, split=split, params={"demo_frames": False}, index=i))
-        truths.setdefault(s.family, task_truth(s.instance, s.bench))
+    config = split_config(split).bench
+    truths: list[tuple[str, Any]] = []
+    for family in sorted(FAMILIES):
+        shapes: list[tuple[Any, ...]] = []
+        for label, params in labelled_variants(family):
+            t = task_truth(params, config)
+            shape = (t.stages, [v.name for v in t.state_variables],
+                     [c.name for c in t.constraints], t.preconditions,
+                     [(c.variable, c.op) for c in t.success])
+            if shape not in shapes:  # one row per kind of instance whose names differ
+                shapes.append(shape)
+                truths.append((f"`{family}`" + (f" ({label})" if label else ""), t))
     rows = ["| family | stages | variables | constraints | preconditions | success |",
             "|---|---|---|---|---|---|"]
-    for family, t in sorted(truths.items()):
+    for family, t in truths:
         pre = "; ".join(f"`{k}`: " + ", ".join(f"`{r}`" for r in v)
                         for k, v in t.preconditions.items())
         rows.append(
-            f"| `{family}` | " + " ".join(f"`{x}`" for x in t.stages) + " | "
+            f"| {family} | " + " ".join(f"`{x}`" for x in t.stages) + " | "
             + ", ".join(f"`{v.name}`" for v in t.state_variables) + " | "
             + ", ".join(f"`{c.name}`" for c in t.constraints) + f" | {pre or '—'} | "
             + ", ".join(f"`{c.variable} {c.op}`" for c in t.success) + " |")
@@ -207,8 +220,9 @@ def vocabulary(plugin: TrackPlugin[Track2Scenario, Any]) -> str:
     return "\n".join([
         *packet_keys(plugin, split),
         *part_rows_lines(),
-        f"Task-model names per family (the truths of sampled `{split}` instances; "
-        "`simhost.worlds.track2.task_truth`): a model of another family scores 0.",
+        "Task-model names per family (`simhost.worlds.track2.task_truth` of each kind of "
+        "instance; a family has one row per kind whose names differ, labelled by the "
+        "parameter that makes it): a model of another family scores 0.",
         "",
         *rows,
         "",

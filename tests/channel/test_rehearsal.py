@@ -31,7 +31,7 @@ def test_the_rehearsal_plays_the_calendar_end_to_end(images: dict[str, str],
     assert summary["verified"]
     assert {r["team"] for r in summary["boards"]["final"]} == set(summary["finalists"])
     assert "public board:" in done.stdout and "verified" in done.stdout
-    assert "team-a froze" in done.stdout  # as a team does, over the API (`eagc freeze`)
+    assert "team-a froze" in done.stderr  # as a team does, over the API (`eagc freeze`)
     # One changed byte of a file the manifest names: verify fails, naming it.
     manifest = Path(summary["manifest"])
     report = manifest.parent / "team-a" / "report.md"

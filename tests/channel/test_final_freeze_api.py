@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import secrets
-import threading
+import sys
 import time
 from collections.abc import Iterator
 from datetime import UTC, datetime
@@ -18,15 +18,17 @@ from pathlib import Path
 
 import pytest
 import requests
-import uvicorn
 
 from orchestrator._channel.api import create_app
 from orchestrator._channel.channel import Channel
 from orchestrator._channel.client import Login, freeze
 from orchestrator._channel.db import ChannelError, Clock
 from orchestrator._channel.final import MAX_FILE_BYTES, verify, write_manifest
-from orchestrator._channel.registry import RegistryProcess, free_port
+from orchestrator._channel.registry import RegistryProcess
 from schemas import ChallengeSpec, Outcome, SubmitRequest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _served import serve_app  # noqa: E402
 
 T0 = datetime(2026, 9, 1, 12, 0, tzinfo=UTC).timestamp()
 DISCLOSURE = json.dumps({
@@ -59,20 +61,10 @@ def served(tmp_path: Path) -> Iterator[Served]:
     ch.registry = RegistryProcess(tmp_path / "registry", ch.keys, realm="http://unused",
                                   port=5999)
     ch.set_finalists(ch.phase("final"), ["team-a", "team-b"], who="test", why="the cut")
-    port = free_port("127.0.0.1")
-    server = uvicorn.Server(uvicorn.Config(create_app(ch), host="127.0.0.1", port=port,
-                                           log_level="warning", access_log=False))
-    thread = threading.Thread(target=server.run, daemon=True, name="freeze-api")
-    thread.start()
-    deadline = time.monotonic() + 30
-    while not server.started:
-        assert thread.is_alive() and time.monotonic() < deadline, "uvicorn did not start"
-        time.sleep(0.05)
     try:
-        yield Served(ch, f"http://127.0.0.1:{port}")
+        with serve_app(create_app(ch), "freeze-api") as url:
+            yield Served(ch, url)
     finally:
-        server.should_exit = True
-        thread.join(10)
         ch.db.close()
 
 

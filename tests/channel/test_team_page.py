@@ -13,7 +13,6 @@ import secrets
 import shutil
 import sys
 import tempfile
-import threading
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -22,16 +21,18 @@ from pathlib import Path
 
 import pytest
 import requests
-import uvicorn
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "orchestrator"))
 from _chromium import Browser  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _served import serve_app  # noqa: E402
 
 from orchestrator._campaign.seeds import load_secret, seed_list  # noqa: E402
 from orchestrator._channel.api import create_app  # noqa: E402
 from orchestrator._channel.channel import Channel  # noqa: E402
 from orchestrator._channel.db import Clock  # noqa: E402
-from orchestrator._channel.registry import RegistryProcess, free_port  # noqa: E402
+from orchestrator._channel.registry import RegistryProcess  # noqa: E402
 from orchestrator._episode.worker import EpisodeSpec, run_episode  # noqa: E402
 from orchestrator._runtimes.local import LocalProcessRuntime  # noqa: E402
 from schemas import (  # noqa: E402
@@ -143,21 +144,10 @@ def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
 
     app = create_app(ch)
     app.state.pages.refresh_s = 1  # the page's own refresh, shortened
-    port = free_port("127.0.0.1")
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port,
-                                           log_level="warning", access_log=False))
-    thread = threading.Thread(target=server.run, daemon=True, name="team-page")
-    thread.start()
-    deadline = time.monotonic() + 30
-    while not server.started:
-        assert thread.is_alive() and time.monotonic() < deadline, "uvicorn did not start"
-        time.sleep(0.05)
     try:
-        yield Served(ch, f"http://127.0.0.1:{port}", tokens, ids,
-                     tmp_path_factory.mktemp("team-page"))
+        with serve_app(app, "team-page") as url:
+            yield Served(ch, url, tokens, ids, tmp_path_factory.mktemp("team-page"))
     finally:
-        server.should_exit = True
-        thread.join(10)
         ch.db.close()
         shutil.rmtree(data, ignore_errors=True)
 

@@ -47,7 +47,8 @@ OBS_TEXT = {
              "angle in rad or slide position in m on the dev split; 0 on the official "
              "splits: not observed), age (s: how old the state shown is). Official splits: "
              "measured with noise, at a lower rate, with latency, kept stale while the "
-             "gripper hides the part from both cameras, yaw only modulo the part's symmetry",
+             "gripper hides the part from all three cameras, yaw only modulo the part's "
+             "symmetry",
     "force": "exact: normal contact force on the left finger, right finger and palm (N), then "
              "the net contact force on the gripper, world frame x, y, z (N)",
     "goal": "dev split only: [stated (1 or 0), g1, g2, g3], the task's goal parameters "
@@ -63,6 +64,13 @@ OBS_TEXT = {
     "depth_front": "front camera, H x W, depth along the optical axis (m)",
     "segmentation_front": "front camera, H x W: 0 nothing, k the part of parts row k - 1, "
                           "-1 the gripper",
+    "rgb_top": "top camera (straight down from 2.4 m at the press wells' region, image "
+               "up +x, right -y, about x 0.04-0.22 m and y -0.12-0.12 m at the buttons' "
+               "height: the buttons at the bottom of the wells; pose and field of view in "
+               "the track README), H x W x 3, 8-bit RGB; refreshed with rgb",
+    "depth_top": "top camera, H x W, depth along the optical axis (m)",
+    "segmentation_top": "top camera, H x W: 0 nothing, k the part of parts row k - 1, "
+                        "-1 the gripper",
 }
 
 

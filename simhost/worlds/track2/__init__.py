@@ -15,7 +15,7 @@ user may touch:
 - the environment: :class:`BenchEnv` (a ``gymnasium.Env``; :class:`BenchInfo`, its
   ``info`` typed), :func:`register_envs`
   (``eagc/Bench-<Family>-v0``, ``split=`` as a keyword), ``PART_FIELDS``, ``CAMERAS`` (the
-  two cameras of the RGB-D observation) and ``CAMERA_FOVY``;
+  three cameras of the RGB-D observation), ``CAMERA_FOVY``, ``TOP_POS`` and ``TOP_FOVY``;
 - ground truth for scoring: :class:`TaskTruth`, :func:`task_truth`;
 - the scripted expert: :class:`ScriptedExpert` (privileged, or through the observations),
   :func:`expert_policy`;
@@ -38,7 +38,7 @@ import importlib
 import os
 from typing import TYPE_CHECKING, Any
 
-from ._bench import CAMERA_FOVY, CAMERAS, PART_FIELDS
+from ._bench import CAMERA_FOVY, CAMERAS, PART_FIELDS, TOP_FOVY, TOP_POS
 from ._config import (
     OFFICIAL_IMAGE_SIZE,
     SPLITS,
@@ -112,6 +112,8 @@ __all__ = [
     "PART_FIELDS",
     "OFFICIAL_IMAGE_SIZE",
     "SPLITS",
+    "TOP_FOVY",
+    "TOP_POS",
     "BenchConfig",
     "BenchEnv",
     "BenchInfo",

@@ -5,11 +5,13 @@ position-servoed with capped forces, and two fingers on slides along the hand's 
 origin is the tool centre point (TCP), level with the fingertips. The table top is at z = 0,
 x points away from the robot's side of the table; the hand reaches x, y in [-0.3, 0.3] and
 z in [0.003, 0.3] m, yaw in [-3.2, 3.2] rad, and starts at ``HOME``. Fingers squeeze with at
-most ``GRIP_FORCE`` each. Two fixed cameras (``CAMERAS``) look down at the table from opposite
-sides, 60 degrees below the horizon, low enough to see under the gripper at ``HOME``: the
-``overview`` camera from the robot's side frames the near half of the bench, the ``front``
-camera from across the table the far half. Physics: 2 ms implicit-fast steps, elliptic
-friction cones, auto-reset disabled.
+most ``GRIP_FORCE`` each. Three fixed cameras (``CAMERAS``): two look down at the table from
+opposite sides, 60 degrees below the horizon, low enough to see under the gripper at
+``HOME`` (the ``overview`` camera from the robot's side frames the near half of the bench,
+the ``front`` camera from across the table the far half), and the ``top`` camera looks
+straight down into the region of the tool-use family's press wells (``TOP_POS``,
+``TOP_FOVY``). Physics: 2 ms implicit-fast steps, elliptic friction cones, auto-reset
+disabled.
 """
 
 from __future__ import annotations
@@ -51,15 +53,61 @@ HIDDEN_GROUP = 3
 """Geom group of collision geoms a visual geom shows instead: in contact, not rendered."""
 RAY_GROUPS = np.array([1, 1, 0, 1, 1, 1], dtype=np.uint8)
 """``mj_ray``'s geom group mask: every group but ``VISUAL_GROUP``."""
-CAMERAS = ("overview", "front")
-"""The bench's cameras, both ``CAMERA_FOVY`` degrees high, their image 4:3 (W:H), 60 degrees below
-the horizon. Each frames its band of the table, every point of it from the table top to 8 cm
-above, at the official image size: ``overview`` at (-0.38, 0, 0.46) m looking along +x,
-x in [-0.24, 0.06] m (the pegs, the assembly's loose parts, the tools); ``front`` at
-(0.555, 0, 0.51) m looking along -x, x in [0.06, 0.46] m (holes, trays, handles, housings,
-wells, the puck); both y in [-0.19, 0.19] m. A ray from either to a part under the gripper at
-``HOME`` passes below the fingertips."""
+CAMERAS = ("overview", "front", "top")
+"""The bench's cameras, every image 4:3 (W:H). ``overview`` and ``front`` are
+``CAMERA_FOVY`` degrees high, 60 degrees below the horizon, and each frames its band of the
+table, every point of it from the table top to 8 cm above, at the official image size:
+``overview`` at (-0.38, 0, 0.46) m looking along +x, x in [-0.24, 0.06] m (the pegs, the
+assembly's loose parts, the tools); ``front`` at (0.555, 0, 0.51) m looking along -x,
+x in [0.06, 0.46] m (holes, trays, handles, housings, wells, the puck); both
+y in [-0.19, 0.19] m. A ray from either to a part under the gripper at ``HOME`` passes below
+the fingertips. ``top`` looks straight down (image up = +x, image right = -y) at
+``TOP_POS``, ``TOP_FOVY`` degrees high: it shows the buttons at the bottom of the press
+wells, which no slanted view sees past the well's walls."""
 CAMERA_FOVY = 40.0
+
+WELLS_REGION = ((0.08, 0.18), (-0.10, 0.10))
+"""(x, y) ranges (m) of a press well's centre over the instance distribution: the tool-use
+family places it at (0.08 + 0.10 u, -0.10 + 0.20 v), ``target_u`` and ``target_v`` in
+[0, 1] on every split."""
+WELL_IN = 0.011
+"""Inner half-width of a press well (m)."""
+BUTTON_HALF = 0.008
+"""Half-width of a press button's square face (m)."""
+BUTTON_TOP = 0.016
+"""Height of a press button's face above the table at rest (m)."""
+WELL_RIM_MAX = 0.085
+"""Height of the deepest well's rim above the table (the top of ``well_depth``'s range)."""
+JITTER_MAX = 0.01
+"""Largest per-reset offset of a fixture along an axis (m): ``JITTER_CLIP`` (2.5) standard
+deviations of the largest ``attempt_jitter_m`` of the splits (0.004, ``challenge``)."""
+
+
+def _top_camera() -> tuple[tuple[float, float, float], float]:
+    """The ``top`` camera's position and vertical field of view (degrees), by rule.
+
+    Framing: the region a button's face can take (``WELLS_REGION`` widened on every side by
+    ``JITTER_MAX`` and ``BUTTON_HALF``) fills the image's width (y) or height (x), 4:3, in the
+    plane of the button faces, centred. Height: a line of sight to the near edge of a button
+    whose centre is farthest from the camera along an image axis passes inside the rim of
+    the deepest well, so every button shows its whole face: the rim, ``WELL_RIM_MAX -
+    BUTTON_TOP`` above the face, may lean in by no more than the gap between the button and
+    the wall (``WELL_IN - BUTTON_HALF``).
+    """
+    (x0, x1), (y0, y1) = WELLS_REGION
+    grow = JITTER_MAX + BUTTON_HALF
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    half_y = max((y1 - y0) / 2 + grow, ((x1 - x0) / 2 + grow) * 4 / 3)  # image width
+    far = max((x1 - x0) / 2, (y1 - y0) / 2) + JITTER_MAX - BUTTON_HALF  # near edge, off-axis
+    height = (WELL_RIM_MAX - BUTTON_TOP) * far / (WELL_IN - BUTTON_HALF)
+    fovy = 2 * math.degrees(math.atan(half_y * 3 / 4 / height))
+    return (round(cx, 4), round(cy, 4), round(BUTTON_TOP + height, 4)), round(fovy, 4)
+
+
+TOP_POS, TOP_FOVY = _top_camera()
+"""The ``top`` camera's position (m) and vertical field of view (degrees): ``_top_camera``'s
+rule, about 2.4 m above the button faces and 4.3 degrees high: a narrow view from far up,
+so that the lines of sight into every well are within 3 degrees of vertical."""
 
 
 def image_key(channel: str, camera: str) -> str:
@@ -151,6 +199,8 @@ def build_mjcf(scene: Scene, *, surface_friction: float, grip_slip: bool = False
       fovy="{CAMERA_FOVY:g}"/>
     <camera name="front" pos="0.555 0 0.51" xyaxes="0 1 0 -0.866025 0 0.5"
       fovy="{CAMERA_FOVY:g}"/>
+    <camera name="top" pos="{' '.join(f'{v:g}' for v in TOP_POS)}" xyaxes="0 -1 0 1 0 0"
+      fovy="{TOP_FOVY:g}"/>
     <geom name="table" class="fixture" type="box" pos="0.05 0 -0.02" size="0.5 0.45 0.02"
       material="table" rgba="1 1 1 1"/>
     <body name="hand" gravcomp="1">

@@ -47,9 +47,9 @@ class ObservationConfig(_Frozen):
     averages away — and Gaussian noise to its position (``pose_noise_m`` per axis) and yaw
     (``yaw_noise_rad``), and reports the yaw only modulo the part's symmetry when
     ``symmetric_yaw``. A part the gripper hides from the
-    cameras (``occlusion``: from both of the bench's cameras, every line of sight to the
-    part's sample points first meets the gripper) keeps its last measurement, and the row's
-    ``age`` grows. All
+    cameras (``occlusion``: from every one of the bench's three cameras, every line of sight
+    to the part's sample points first meets the gripper) keeps its last measurement, and the
+    row's ``age`` grows. All
     noise comes from the episode's seeded generator: the same seed, the same noise.
     """
 
@@ -86,10 +86,11 @@ class ObservationConfig(_Frozen):
                                  "slide position of articulated parts (else 0).")
     goal_vector: bool = Field(True, description="The observation has 'goal', the task's stated "
                               "goal parameters.")
-    rgbd: bool = Field(False, description="Render 'rgb' and 'depth' from the overview camera "
-                       "and 'rgb_front' and 'depth_front' from the front camera.")
-    segmentation: bool = Field(False, description="Also render 'segmentation' and "
-                               "'segmentation_front' (part ids).")
+    rgbd: bool = Field(False, description="Render 'rgb' and 'depth' from the overview camera, "
+                       "'rgb_front' and 'depth_front' from the front camera and 'rgb_top' "
+                       "and 'depth_top' from the top camera.")
+    segmentation: bool = Field(False, description="Also render 'segmentation', "
+                               "'segmentation_front' and 'segmentation_top' (part ids).")
     image_size: tuple[int, int] = Field((96, 128), description="(height, width) of images "
                                         "(the official splits: OFFICIAL_IMAGE_SIZE).")
 
@@ -155,8 +156,10 @@ class SplitConfig(_Frozen):
         "family's cap.")
 
 
-OFFICIAL_IMAGE_SIZE = (192, 256)
-"""(height, width) of the official splits' RGB-D: 256 x 192, a size vision models take."""
+OFFICIAL_IMAGE_SIZE = (384, 512)
+"""(height, width) of the official splits' RGB-D, every camera: 512 x 384, the size at which
+every present part at reset is at least 30 px across and 150 px in the camera that shows it
+best (``tests/simhost/test_track2_cameras.py``)."""
 _ROBOT = ObservationConfig(
     pose_noise_m=0.001, yaw_noise_rad=0.015, pose_bias_m=0.001, yaw_bias_rad=0.01,
     calib_m=0.003, calib_rad=0.005, period_steps=2, latency_steps=1, occlusion=True,

@@ -142,7 +142,8 @@ def write_demo_packet(
       seed: passed to ``env.reset(seed=...)`` (jitter and observation noise); not written.
       config: the split's bench config (default: the dev split's).
       frames: also write the ``overview`` camera's RGB frames (and depth in
-        ``frame_depth``) every ``frame_every`` observations and the last one.
+        ``frame_depth``) every ``frame_every`` observations and the last one; the packet
+        carries that camera's frames only, not the ``front`` or ``top`` camera's.
       image_size: ``(height, width)`` of the frames (default: the config's).
 
     Returns:

@@ -23,9 +23,11 @@ decides what the observation holds (see ``simhost.worlds.track2._config``):
 - ``goal`` (4,): ``[stated, g1, g2, g3]`` (``dev`` only): the task's goal parameters.
 - ``rgb`` (H, W, 3) uint8, ``depth`` (H, W) float32 metres and, if configured,
   ``segmentation`` (H, W) int32 (0 nothing, k the part of ``parts`` row k - 1, -1 the
-  gripper) from the ``overview`` camera (the robot's side, the near half of the bench), and
+  gripper) from the ``overview`` camera (the robot's side, the near half of the bench),
   ``rgb_front``, ``depth_front`` (``segmentation_front``) from the ``front`` camera (across
-  the table, the far half; ``CAMERAS``), no shadows, rendered when parts are measured.
+  the table, the far half) and ``rgb_top``, ``depth_top`` (``segmentation_top``) from the
+  ``top`` camera (straight down into the press wells' region; ``CAMERAS``), no shadows,
+  rendered when parts are measured.
 
 ``reset(seed=...)`` seeds everything random in an episode: the per-reset jitter of part and
 fixture poses (``attempt_jitter_*``) and the observation noise. The same instance and seed

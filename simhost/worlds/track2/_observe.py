@@ -11,13 +11,13 @@
   reported modulo the part's symmetry period (the tilt is kept); the ``joint`` column is
   the true joint value only with ``joint_readings``;
 - a row whose part the gripper hides from the cameras at that time (``occlusion``: from
-  each of the bench's cameras (``CAMERAS``: ``overview`` and ``front``), every line of sight
-  to the part's sample points — the centre, top and bottom of each of its collision geoms,
-  or the site a row shows — meets a gripper geom first; the rays see every geom group but
-  ``VISUAL_GROUP``, the visual-only geoms) keeps its previous measurement. A part seen past
-  the gripper by either camera is measured. What leaves a camera's field of view is not
-  hidden by that: the channel models a pose estimator over both cameras, whose fields cover
-  the table where the parts rest, not the loss of a part carried out of them;
+  each of the bench's cameras (``CAMERAS``: ``overview``, ``front`` and ``top``), every line
+  of sight to the part's sample points — the centre, top and bottom of each of its collision
+  geoms, or the site a row shows — meets a gripper geom first; the rays see every geom group
+  but ``VISUAL_GROUP``, the visual-only geoms) keeps its previous measurement. A part seen
+  past the gripper by any one camera is measured. What leaves a camera's field of view is
+  not hidden by that: the channel models a pose estimator over the three cameras, whose
+  fields cover the table where the parts rest, not the loss of a part carried out of them;
 - the ``age`` column says how old the state shown is, in seconds (latency included).
 
 At reset every part is measured from the reset state, occluded or not. The noise is drawn

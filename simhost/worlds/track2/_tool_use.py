@@ -32,7 +32,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._bench import WIDTH_MAX, Scene, dress, hide, quat_z, wrap
+from ._bench import (
+    BUTTON_HALF,
+    BUTTON_TOP,
+    WELL_IN,
+    WELLS_REGION,
+    WIDTH_MAX,
+    Scene,
+    dress,
+    hide,
+    quat_z,
+    wrap,
+)
 from ._family import (
     Evaluation,
     FamilyTask,
@@ -59,11 +70,9 @@ SHORT = 0.05  # distractor stick length / hoe reach (m)
 HANDLE = (0.01, 0.01, 0.015)  # stick handle half-sizes
 HOE_HANDLE_H = 0.03  # hoe handle half-height
 SHAFT_Z = 0.03  # hoe shaft height above the table: it passes over the puck
-WELL_IN = 0.011
 RACK_IN = 0.0065  # rack inner half-width around a 0.005 shaft
 RACK_H = 0.045
 PRESS_DEPTH = 0.006
-BUTTON_TOP = 0.016
 PALM_GAP = 0.056  # TCP below a handle's top when the palm rests on it
 LINE_HALF = 0.005  # m: half-width of the goal line's green tape (visual; its centre is the goal)
 
@@ -87,7 +96,8 @@ class ToolUseTask(FamilyTask):
             self.lengths[1 - self.slot] = SHORT
         u, v = p.f("target_u"), p.f("target_v")
         if self.press:
-            self.target_xy0 = np.array([0.08 + 0.10 * u, -0.10 + 0.20 * v])
+            (x0, x1), (y0, y1) = WELLS_REGION
+            self.target_xy0 = np.array([x0 + (x1 - x0) * u, y0 + (y1 - y0) * v])
         else:
             self.target_xy0 = np.array([0.36 + 0.06 * u, -0.10 + 0.20 * v])
         self.goal_x0 = 0.08 + 0.12 * p.f("goal_u")
@@ -157,7 +167,8 @@ class ToolUseTask(FamilyTask):
     <body name="target" pos="{tx:.5f} {ty:.5f} {BUTTON_TOP - 0.005:.5f}">
       <joint name="button" type="slide" axis="0 0 1" range="-0.012 0" stiffness="400"
         damping="2" armature="0.01"/>
-      <geom type="box" size="0.008 0.008 0.005" mass="0.01" rgba="0.9 0.1 0.1 1"/>
+      <geom type="box" size="{BUTTON_HALF} {BUTTON_HALF} 0.005" mass="0.01"
+        rgba="0.9 0.1 0.1 1"/>
     </body>"""
             contact = '<exclude body1="fixture" body2="target"/>'
         else:

@@ -3,7 +3,7 @@
 raw MuJoCo in the same run, at the earlier small image size and at the official one.
 
     python tests/benchmarks/bench_render.py [--quick] [--rounds R] [--size WxH]
-        [--families a,b] [--gpu | --no-gpu] [--json out.json]
+        [--tracks track1,track2] [--families a,b] [--gpu | --no-gpu] [--json out.json]
 
 Cases: Track 1 ``standard`` and ``challenge`` (one house each, seed ``--track1-seed``),
 Track 2 ``standard`` and ``challenge`` for each of ``--families`` (one sampled instance
@@ -23,9 +23,10 @@ size (a candidate before the tracks adopt it). For each case and size, in one pr
 3. render: at states of the recorded steps (``mj_setState`` + ``mj_forward``, untimed), our
    observation render (Track 1 ``HouseSim.render_rgbd``, Track 2 the env's observation
    render: RGB, depth and segmentation where the split has it) against a raw
-   ``mujoco.Renderer`` of the same model at the same size rendering the same images (same
-   camera, geom groups and scene flags as ours, one ``update_scene`` and one ``render()`` per
-   image), alternating which goes first;
+   ``mujoco.Renderer`` of the same model at the same size rendering the same images (every
+   camera of the observation: Track 1 ``eye``, Track 2 each of ``CAMERAS``; same geom groups
+   and scene flags as ours, one ``update_scene`` per camera and one ``render()`` per image),
+   alternating which goes first;
 4. floor: from each kept state, with the step's final controls, as many raw ``mj_step`` as
    that step advanced the physics (``data.time`` / ``timestep``), timed together; the floor
    of a step is that plus the raw render times the renders per step (1 for Track 1; Track 2
@@ -117,7 +118,7 @@ def _option_of(owner: Any) -> Any:
 class _Track1:
     """A Track 1 house of a split: envs, camera, observation render, policy."""
 
-    camera = "eye"
+    cameras: tuple[str, ...] = ("eye",)
 
     def __init__(self, split: str, size: tuple[int, int], seed: int) -> None:
         from simhost.worlds.track1 import HouseEnv
@@ -182,11 +183,10 @@ class _Track1:
 class _Track2:
     """A Track 2 instance of a split and family."""
 
-    camera = "overview"
-
     def __init__(self, split: str, family: str, size: tuple[int, int], seed: int) -> None:
-        from simhost.worlds.track2 import BenchEnv
+        from simhost.worlds.track2 import CAMERAS, BenchEnv
 
+        self.cameras: tuple[str, ...] = tuple(CAMERAS)
         self.split, self.family, self.size, self.seed = split, family, size, seed
         w, h = size
         self.env = BenchEnv(family=family, instance_seed=seed, split=split, render_rgbd=True,
@@ -264,16 +264,17 @@ class _RawRenderer:
 
     def render(self) -> None:
         r = self.r
-        r.update_scene(self.data, camera=self.case.camera, scene_option=self.option)
-        r.render()
-        if "depth" in self.channels:
-            r.enable_depth_rendering()
+        for camera in self.case.cameras:
+            r.update_scene(self.data, camera=camera, scene_option=self.option)
             r.render()
-            r.disable_depth_rendering()
-        if "segmentation" in self.channels:
-            r.enable_segmentation_rendering()
-            r.render()
-            r.disable_segmentation_rendering()
+            if "depth" in self.channels:
+                r.enable_depth_rendering()
+                r.render()
+                r.disable_depth_rendering()
+            if "segmentation" in self.channels:
+                r.enable_segmentation_rendering()
+                r.render()
+                r.disable_segmentation_rendering()
 
     def close(self) -> None:
         self.r.close()
@@ -436,13 +437,15 @@ def _parse_size(text: str) -> tuple[int, int]:
 
 
 def plan(families: list[str], extra: tuple[int, int] | None,
-         seeds: tuple[int, int]) -> list[dict[str, Any]]:
+         seeds: tuple[int, int],
+         tracks: tuple[str, ...] = ("track1", "track2")) -> list[dict[str, Any]]:
     """Every case and size the benchmark runs, in table order."""
     cases: list[dict[str, Any]] = [
         {"track": "track1", "split": s, "family": None, "seed": seeds[0],
-         "label": f"T1 {s}"} for s in SPLITS]
+         "label": f"T1 {s}"} for s in SPLITS if "track1" in tracks]
     cases += [{"track": "track2", "split": s, "family": f, "seed": seeds[1],
-               "label": f"T2 {s[:4]} {f}"} for s in SPLITS for f in families]
+               "label": f"T2 {s[:4]} {f}"} for s in SPLITS for f in families
+              if "track2" in tracks]
     out = []
     for c in cases:
         sizes: list[tuple[tuple[int, int], str]] = [(TODAY[c["track"]], "today")]
@@ -540,6 +543,8 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=None, help="interleaved rounds (default 3)")
     ap.add_argument("--size", type=_parse_size, default=None,
                     help="one more size, WIDTHxHEIGHT (e.g. 256x192)")
+    ap.add_argument("--tracks", default="track1,track2",
+                    help="the tracks whose cases run (comma-separated)")
     ap.add_argument("--families", default="insertion,opening",
                     help="Track 2 families (comma-separated)")
     ap.add_argument("--track1-seed", type=int, default=20_001)
@@ -571,7 +576,10 @@ def main() -> int:
         devices.append("gpu")
     rounds = max(1, args.rounds or (1 if args.quick else 3))
     which = 1 if args.quick else 0
-    specs = plan(families, args.size, (args.track1_seed, args.track2_seed))
+    tracks = tuple(t for t in args.tracks.split(",") if t)
+    if not tracks or set(tracks) - {"track1", "track2"}:
+        ap.error(f"--tracks wants track1, track2 or both, not {args.tracks!r}")
+    specs = plan(families, args.size, (args.track1_seed, args.track2_seed), tracks)
 
     def on_term(signum: int, frame: Any) -> None:
         raise KeyboardInterrupt

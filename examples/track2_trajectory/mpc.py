@@ -1,0 +1,144 @@
+"""The demonstration's trajectory adapted by planning through the learned world model.
+
+Each phase the demo parser finds in the demonstration (``parse.py``: which row the hand
+held, the grasp in that row's frame, where the row ended relative to a reference row) is a
+goal configuration of the parts; the hand's next displacement is chosen by
+``worldmodel.plan_step`` so that the part, as the model predicts it, moves there:
+
+- ``carry``: grasp as the demonstration did, lift, then plan the hand's motion so the held
+  part's predicted pose reaches its goal relative to the reference row, lower, let go;
+- ``drive``: the part's path from where it starts to its goal (``generic.Motion``: a slide,
+  or a turn about the pivot start and goal imply), planned a lead ahead along that path
+  with the hand kept at the grasp on the predicted part;
+- ``tool``: the demo parser's tool phase (the tip's path relative to the part it acts on).
+
+Receding horizon: after a carry or a drive the plan starts again from the parts as they
+now are while the part is off its goal configuration (up to ``REPLANS`` per attempt). What
+it does not have is a task model: no stage or success condition of its own, no measured
+joint range, no other turning direction or mechanism than the demonstration's.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+
+import numpy as np
+from controllers import Plan, View, hold, look, move, release
+from generic import Motion, _fresh, _grasp_pose, _lower, approach, near_period, pose, tool
+from parse import DemoParse, Phase, compose
+from perception import wrap
+from worldmodel import PartDynamics, plan_step
+
+REPLANS = 3  # plans per phase and attempt
+HORIZON = 3  # steps a drive's planner looks ahead (a carry's looks one step: a servo)
+TURN_PERIOD = math.pi  # the two-finger hand grips alike at yaw and yaw + pi
+
+
+def _goal(v: View, ph: Phase) -> np.ndarray:
+    assert ph.ref is not None and ph.goal is not None
+    return compose(pose(v, ph.ref), ph.goal)
+
+
+def carry(v: View, ph: Phase, model: PartDynamics, kind: str) -> Plan:
+    """Carry the held row to its goal relative to the reference row, replanned from the
+    parts as they are while it rests off that goal."""
+    held = ph.held
+    rng = np.random.default_rng(held)
+    for _ in range(REPLANS):
+        goal, part = _goal(v, ph), pose(v, held)
+        turn = wrap(near_period(goal[3] - part[3], TURN_PERIOD))
+        at, yaw0 = _grasp_pose(v, ph, part, turn)
+        yield from approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
+        lift = max(ph.carry_z, goal[2] + (v.ee()[2] - part[2]) + 0.03)
+        ee = v.ee()
+        yield from move(v, [ee[0], ee[1], lift], yaw0, 0.0, tol=0.004)
+        yield from _fresh(v, held)
+        for k in range(70):
+            goal, part, hand = _goal(v, ph), pose(v, held), v.ee()
+            target = goal.copy()
+            target[3] = part[3] + wrap(near_period(goal[3] - part[3], TURN_PERIOD))
+            err = target[:2] - part[:2]
+            dyaw = float(target[3] - part[3])
+            if np.linalg.norm(err) < 0.001 and abs(dyaw) < 0.02 and v.speed() < 0.003:
+                break
+            if k and k % 12 == 0:
+                yield from look(v, 3)  # let the measurements of the held part catch up
+            guess = np.array([err[0], err[1], 0.0, dyaw])
+            d = plan_step(model, kind, part, hand, target, None, guess, horizon=1, rng=rng)
+            yield from move(v, [hand[0] + d[0], hand[1] + d[1], lift], hand[3] + d[3], 0.0,
+                            max_steps=1)
+        drop = v.pos(held)[2] - _goal(v, ph)[2]
+        yield from _lower(v, held, drop + 0.02)
+        yield from hold(v, 2, 0.0)
+        yield from release(v, max(ph.open_width, 0.03), 0.04)
+        yield from look(v, 8)
+        g, p = _goal(v, ph), pose(v, held)
+        if np.linalg.norm(g[:2] - p[:2]) < 0.004 and p[2] < g[2] + 0.004:
+            return
+
+
+def drive(v: View, ph: Phase, model: PartDynamics, kind: str, state_goal: bool) -> Plan:
+    """Move the held mechanism along its path to the goal, replanned from where it stopped
+    while it is short of the goal."""
+    held = ph.held
+    assert ph.displacement is not None
+    rng = np.random.default_rng(held)
+    start = pose(v, held)
+    if state_goal and ph.ref is not None and ph.goal is not None:
+        goal = _goal(v, ph)
+        goal[3] = start[3] + wrap(goal[3] - start[3])
+    else:
+        goal = compose(start, ph.displacement)
+    motion = Motion(start, goal)
+    step = 0.01 / max(motion.length, 0.01)  # about 1 cm (or 0.1 rad) per step
+    for _ in range(REPLANS):
+        s0 = motion.progress(pose(v, held))
+        if abs(1 - s0) * motion.length < 0.003:
+            return
+        part = motion.at(s0)
+        at, yaw0 = _grasp_pose(v, ph, part, (1 - s0) * motion.dyaw)
+        k_yaw = yaw0 - (part[3] + ph.grasp[3])  # the grasp's multiple of pi
+        grasp = ph.grasp.copy()
+        grasp[3] += k_yaw
+        yield from approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
+        stuck, best = 0, s0
+        for _ in range(200):
+            now = pose(v, held)
+            s = motion.progress(now)
+            if abs(1 - s) * motion.length < 0.002:
+                break
+            stuck = stuck + 1 if s < best + 0.1 * step else 0
+            best = max(best, s)
+            if stuck > 12:
+                break
+            # a lead per step of the horizon, more while the part lags (friction)
+            lead = HORIZON * step * min(2.5, 1.0 + 0.3 * stuck)
+            target = motion.at(s + float(np.clip(1 - s, -lead, lead)))
+            hand = v.ee()
+            want = compose(target, grasp)
+            guess = np.array([want[0] - hand[0], want[1] - hand[1], 0.0,
+                              wrap(want[3] - hand[3])])
+            now[3] = target[3] - wrap(target[3] - now[3])  # unwrapped next to the path
+            d = plan_step(model, kind, now, hand, target, grasp, guess / HORIZON,
+                          horizon=HORIZON, rng=rng)
+            yield from move(v, [hand[0] + d[0], hand[1] + d[1], want[2]], hand[3] + d[3],
+                            0.0, max_steps=1)
+        yield from hold(v, 3, 0.0)
+        yield from release(v, max(ph.open_width, 0.03), 0.05)
+        yield from look(v, 8)
+
+
+def execute(v: View, dp: DemoParse, model: PartDynamics, kinds: dict[int, str],
+            state_goal: bool) -> Iterator[np.ndarray]:
+    """Every phase of the demonstration, in order, planned through ``model``
+    (``kinds``: the kind of part of each row the hand holds)."""
+    yield from look(v, 8)
+    for ph in dp.phases:
+        kind = kinds.get(ph.held, "free")
+        if ph.kind == "carry":
+            yield from carry(v, ph, model, kind)
+        elif ph.kind == "drive":
+            yield from drive(v, ph, model, kind, state_goal)
+        else:
+            yield from tool(v, ph, dp)

@@ -205,7 +205,7 @@ def test_a_part_is_hidden_only_when_the_gripper_hides_it_from_every_camera() -> 
     try:
         env.reset(seed=0)
         ch = env.channel
-        over, front, top = ch._cams
+        over, front, top_cam = ch._cams
         truth = env.task.parts()
         peg = truth[0, 1:4].copy()
         rows = np.array([True, False])
@@ -217,14 +217,17 @@ def test_a_part_is_hidden_only_when_the_gripper_hides_it_from_every_camera() -> 
         _hand_at(env, np.array([at[0], at[1], palm_z - PALM_BOTTOM - 0.012]))
         assert ch._occluded_from(truth, over, rows)[0]
         assert not ch._occluded_from(truth, front, rows)[0]
-        assert not ch._occluded(truth)[0]  # the front camera sees it: measured
+        assert not ch._occluded_from(truth, top_cam, rows)[0]
+        assert not ch._occluded(truth)[0]  # the front and top cameras see it: measured
         # the hand turned across the cameras' view, its palm just above the peg's top:
         # hidden from every camera (the top one too), the row keeps its last value
         top = peg[2] + env.task.h / 2
         _hand_at(env, np.array([peg[0], peg[1], top + 0.004 - PALM_BOTTOM]), math.pi / 2)
         assert ch._occluded(truth)[0]
-        # along them (fingers either side of the peg, seen between them): measured
+        # along them (fingers either side of the peg, seen between them): measured, though
+        # the palm hides it from the top camera
         _hand_at(env, np.array([peg[0], peg[1], top + 0.004 - PALM_BOTTOM]))
+        assert ch._occluded_from(truth, top_cam, rows)[0]
         assert not ch._occluded(truth)[0]
         _hand_at(env, HOME[:3])
         assert not ch._occluded(truth).any()

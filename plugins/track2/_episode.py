@@ -64,7 +64,7 @@ OBS_TEXT = {
     "depth_front": "front camera, H x W, depth along the optical axis (m)",
     "segmentation_front": "front camera, H x W: 0 nothing, k the part of parts row k - 1, "
                           "-1 the gripper",
-    "rgb_top": "top camera (straight down from 2.4 m at the press wells' region, image "
+    "rgb_top": "top camera (straight down from 2.36 m at the press wells' region, image "
                "up +x, right -y, about x 0.04-0.22 m and y -0.12-0.12 m at the buttons' "
                "height: the buttons at the bottom of the wells; pose and field of view in "
                "the track README), H x W x 3, 8-bit RGB; refreshed with rgb",

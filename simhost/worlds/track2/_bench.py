@@ -106,8 +106,8 @@ def _top_camera() -> tuple[tuple[float, float, float], float]:
 
 TOP_POS, TOP_FOVY = _top_camera()
 """The ``top`` camera's position (m) and vertical field of view (degrees): ``_top_camera``'s
-rule, about 2.4 m above the button faces and 4.3 degrees high: a narrow view from far up,
-so that the lines of sight into every well are within 3 degrees of vertical."""
+rule, about 2.35 m above the button faces and 4.3 degrees high: a narrow view from far up,
+so that a line of sight to any button leans about 3 degrees from vertical at most."""
 
 
 def image_key(channel: str, camera: str) -> str:

@@ -40,6 +40,12 @@ def _goal(v: View, ph: Phase) -> np.ndarray:
     return compose(pose(v, ph.ref), ph.goal)
 
 
+def _error(v: View, ph: Phase) -> tuple[np.ndarray, float]:
+    """How far the held part is from its goal: xy (m) and yaw (rad, modulo a half turn)."""
+    g, p = _goal(v, ph), pose(v, ph.held)
+    return g[:2] - p[:2], float(wrap(near_period(g[3] - p[3], TURN_PERIOD)))
+
+
 def carry(v: View, ph: Phase, model: PartDynamics, kind: str) -> Plan:
     """Carry the held row to its goal relative to the reference row, replanned from the
     parts as they are while it rests off that goal."""
@@ -54,16 +60,19 @@ def carry(v: View, ph: Phase, model: PartDynamics, kind: str) -> Plan:
         ee = v.ee()
         yield from move(v, [ee[0], ee[1], lift], yaw0, 0.0, tol=0.004)
         yield from _fresh(v, held)
-        for k in range(70):
-            goal, part, hand = _goal(v, ph), pose(v, held), v.ee()
-            target = goal.copy()
-            target[3] = part[3] + wrap(near_period(goal[3] - part[3], TURN_PERIOD))
-            err = target[:2] - part[:2]
-            dyaw = float(target[3] - part[3])
+        # the transport: straight over the goal (the demonstration's path carries the part
+        # at its height), then the placement planned through the model, one step ahead
+        for _ in range(3):
+            err, dyaw = _error(v, ph)
+            ee = v.ee()
+            yield from move(v, [*(ee[:2] + err), lift], ee[3] + dyaw, 0.0, tol=0.003)
+        yield from look(v, 4)
+        for _ in range(40):
+            part, hand = pose(v, held), v.ee()
+            err, dyaw = _error(v, ph)
             if np.linalg.norm(err) < 0.001 and abs(dyaw) < 0.02 and v.speed() < 0.003:
                 break
-            if k and k % 12 == 0:
-                yield from look(v, 3)  # let the measurements of the held part catch up
+            target = np.array([part[0] + err[0], part[1] + err[1], part[2], part[3] + dyaw])
             guess = np.array([err[0], err[1], 0.0, dyaw])
             d = plan_step(model, kind, part, hand, target, None, guess, horizon=1, rng=rng)
             yield from move(v, [hand[0] + d[0], hand[1] + d[1], lift], hand[3] + d[3], 0.0,

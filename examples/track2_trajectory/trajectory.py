@@ -9,8 +9,9 @@ demo-parser image (its packet reader, demonstration parser, perception and primi
   a tool tip's relative to what it acts on); ``task_model.json`` says what a trajectory
   model knows: the family, the state it tracks (the hand, the parts' poses) and the goal
   pose where the public vocabulary names it (a turn and its direction, a depth, the parts
-  stacked, the opening's sense, the tool's slot). No stages, preconditions or success
-  criteria: those are the task-model baseline's.
+  stacked, the opening's sense and fraction, the tool's slot, the target's travel or
+  offset), as constraints and as the goal variables' target values. No stages,
+  preconditions or conditions beyond the goal pose (a part let go): task structure.
 - ``execution``: each phase planned through the learned part dynamics (``mpc.py``,
   ``worldmodel.py``, the weights in ``dynamics.npz``), replanned from the parts as they are
   while a part is off its goal; each attempt starts over.
@@ -37,10 +38,14 @@ from worldmodel import PartDynamics, kind_of  # noqa: E402
 
 from schemas import TaskModel  # noqa: E402
 
-# The goal pose in the public constraint vocabulary, per family: what a trajectory shows.
+# The goal pose in the public vocabulary, per family: what a trajectory shows. Constraints
+# that state it, and the goal variables whose target value is it (the success criteria on
+# anything else, such as a part let go, are task structure: left out).
 GOAL_CONSTRAINTS = {"insertion": ("hole_depth",), "rotation": ("turn_angle", "turn_direction"),
                     "assembly": ("n_parts",), "opening": ("direction",),
                     "tool_use": ("tool_slot",)}
+GOAL_VARIABLES = ("insertion_depth", "knob_turn", "_placed", "_opening", "button_travel",
+                  "puck_goal_offset")
 
 
 class Agent(DemoParser):
@@ -56,7 +61,9 @@ class Agent(DemoParser):
                           dev=self.dev)
         keep = GOAL_CONSTRAINTS[self.family]
         doc = TaskModel(step=full.step, family=full.family, variables=full.variables,
-                        constraints=[c for c in full.constraints if c.name in keep])
+                        constraints=[c for c in full.constraints if c.name in keep],
+                        success_criteria=[c for c in full.success_criteria
+                                          if c.variable.endswith(GOAL_VARIABLES)])
         self.files.write(doc)
         self.log("model_update", stage, constraints=[c.name for c in doc.constraints])
 

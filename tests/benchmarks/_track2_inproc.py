@@ -169,7 +169,7 @@ def run_inproc(folder: str, *, seed: int, split: str, index: int,
             agent_mod.RemoteEnv = saved  # type: ignore[misc]
             sys.path[:] = path
             for name in ("controllers", "perception", "taskmodel", "demoparser", "skills",
-                         "policy", "parse", "generic"):
+                         "policy", "parse", "generic", "trajectory", "mpc", "worldmodel"):
                 sys.modules.pop(name, None)
         env = env_holder.get("env")
         outcome = ep.outcome()

@@ -24,7 +24,7 @@ pytestmark = [pytest.mark.docker]
 # Official clock (never binding here); one attempt keeps every episode short.
 LIMITS = Limits(startup_s=60.0)
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
-NAMES = ("waypoint", "demoparser", "imitation", "taskmodel")
+NAMES = ("waypoint", "demoparser", "imitation", "trajectory", "taskmodel")
 
 
 @pytest.fixture(scope="module")

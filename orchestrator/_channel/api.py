@@ -167,12 +167,16 @@ Runner = Annotated[None, Depends(_runner)]
 
 
 def manifest_pem(channel: Channel) -> str | None:
-    """The final's manifest key (PEM), made once when the challenge has a final phase."""
+    """The final's manifest key (PEM), made once when the challenge has a final phase;
+    read from its public file (``keys/manifest.pub``) once made."""
     if not any(p.kind == "final" for p in channel.spec.phases):
         return None
-    from orchestrator._channel.final import public_pem, signing_key
+    pub = channel.data / "keys" / "manifest.pub"
+    if not pub.is_file():
+        from orchestrator._channel.final import signing_key
 
-    return public_pem(signing_key(channel.data / "keys")).decode("ascii")
+        signing_key(channel.data / "keys")
+    return pub.read_text(encoding="ascii")
 
 
 def create_app(channel: Channel) -> FastAPI:

@@ -226,8 +226,9 @@ def freeze(sid: str, report: Path, login: Login, *, statement: Path | None = Non
         name = _upload_name(path, kind)
         try:
             with path.open("rb") as f:
+                local[kind] = hashlib.file_digest(f, "sha256").hexdigest()
+                f.seek(0)
                 got = client.call("PUT", f"/api/v1/final/files/{name}", data=f)
-            local[kind] = hashlib.sha256(path.read_bytes()).hexdigest()
         except OSError as e:
             raise ChannelError(f"cannot read {path}: {e.strerror or e}") from None
         if got["sha256"] != local[kind]:

@@ -13,26 +13,56 @@ goal configuration of the parts; the hand's next displacement is chosen by
 - ``tool``: the demo parser's tool phase (the tip's path relative to the part it acts on).
 
 Receding horizon: after a carry or a drive the plan starts again from the parts as they
-now are while the part is off its goal configuration (up to ``REPLANS`` per attempt). What
-it does not have is a task model: no stage or success condition of its own, no measured
-joint range, no other turning direction or mechanism than the demonstration's.
+now are while the part is off its goal configuration (up to ``REPLANS`` per attempt).
+
+Online adaptation between attempts (``Memory``, kept by the agent across the episode's
+attempts): what the attempt's transitions showed about this instance changes the next
+attempt's plan. A drive whose part did not follow the hand at all (the model predicted
+motion, the instance showed none: the path is blocked) is planned next time along the
+demonstration's path reflected across the reference row's axis (a turn the other way, a
+cover or lid mirrored: the other trajectory the same fixture admits); a carry that came
+to rest off its goal aims the next time where it should land, less that miss. What it does
+not have is a task model: no stage or success condition of its own, no measured joint
+range, no reading of the instance's mechanism.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from dataclasses import replace
+from typing import Any
 
 import numpy as np
 from controllers import Plan, View, hold, look, move, release
 from generic import Motion, _fresh, _grasp_pose, _lower, approach, near_period, pose, tool
-from parse import DemoParse, Phase, compose
+from parse import DemoParse, Phase, compose, relative
 from perception import wrap
 from worldmodel import PartDynamics, plan_step
 
 REPLANS = 3  # plans per phase and attempt
+BLOCKED = 0.08  # a drive whose part went less than this fraction of its path was blocked
+MISS_MAX = 0.015  # m: a carry's miss larger than this is not a bias but a failed placement
 HORIZON = 3  # steps a drive's planner looks ahead (a carry's looks one step: a servo)
 TURN_PERIOD = math.pi  # the two-finger hand grips alike at yaw and yaw + pi
+
+
+class Memory(dict[int, dict[str, Any]]):
+    """What earlier attempts showed, per phase index: ``mirrored`` (plan the reflected
+    path), ``miss`` (a carry's resting error, xy in the reference row's frame)."""
+
+    def of(self, i: int) -> dict[str, Any]:
+        return self.setdefault(i, {})
+
+
+def mirrored(ph: Phase) -> Phase:
+    """The phase reflected across its reference row's x axis (a pose (x, y, z, yaw) in that
+    frame becomes (x, -y, z, -yaw)): its goal, its start and its grasp; a drive's own
+    displacement, in the part's frame, turns the other way."""
+    def m(a: np.ndarray | None) -> np.ndarray | None:
+        return None if a is None else np.array([a[0], -a[1], a[2], -a[3]])
+    return replace(ph, goal=m(ph.goal), start_rel=m(ph.start_rel), grasp=m(ph.grasp),
+                   displacement=m(ph.displacement))
 
 
 def _goal(v: View, ph: Phase) -> np.ndarray:
@@ -46,10 +76,14 @@ def _error(v: View, ph: Phase) -> tuple[np.ndarray, float]:
     return g[:2] - p[:2], float(wrap(near_period(g[3] - p[3], TURN_PERIOD)))
 
 
-def carry(v: View, ph: Phase, model: PartDynamics, kind: str) -> Plan:
+def carry(v: View, ph: Phase, model: PartDynamics, kind: str, mem: dict[str, Any]) -> Plan:
     """Carry the held row to its goal relative to the reference row, replanned from the
-    parts as they are while it rests off that goal."""
-    held = ph.held
+    parts as they are while it rests off that goal; aimed short of the goal by the miss
+    earlier attempts measured (``mem["miss"]``), and the miss of this one kept."""
+    held, true = ph.held, ph
+    assert ph.goal is not None
+    miss = np.asarray(mem.get("miss", np.zeros(2)))
+    ph = replace(ph, goal=ph.goal - np.array([miss[0], miss[1], 0.0, 0.0]))
     rng = np.random.default_rng(held)
     for _ in range(REPLANS):
         goal, part = _goal(v, ph), pose(v, held)
@@ -82,14 +116,23 @@ def carry(v: View, ph: Phase, model: PartDynamics, kind: str) -> Plan:
         yield from hold(v, 2, 0.0)
         yield from release(v, max(ph.open_width, 0.03), 0.04)
         yield from look(v, 8)
-        g, p = _goal(v, ph), pose(v, held)
+        g, p = _goal(v, true), pose(v, held)
+        if p[2] < g[2] + 0.004:  # down on its support: how far off, in the reference's frame
+            assert true.ref is not None and true.goal is not None
+            off = relative(p, pose(v, true.ref))[:2] - true.goal[:2]
+            if np.linalg.norm(off) < MISS_MAX:
+                mem["miss"] = miss + off
         if np.linalg.norm(g[:2] - p[:2]) < 0.004 and p[2] < g[2] + 0.004:
             return
 
 
-def drive(v: View, ph: Phase, model: PartDynamics, kind: str, state_goal: bool) -> Plan:
+def drive(v: View, ph: Phase, model: PartDynamics, kind: str, state_goal: bool,
+          mem: dict[str, Any]) -> Plan:
     """Move the held mechanism along its path to the goal, replanned from where it stopped
-    while it is short of the goal."""
+    while it is short of the goal; the reflected path when an earlier attempt found this
+    one blocked (``mem["mirrored"]``), and whether this one was kept."""
+    if mem.get("mirrored"):
+        ph = mirrored(ph)
     held = ph.held
     assert ph.displacement is not None
     rng = np.random.default_rng(held)
@@ -101,6 +144,7 @@ def drive(v: View, ph: Phase, model: PartDynamics, kind: str, state_goal: bool) 
         goal = compose(start, ph.displacement)
     motion = Motion(start, goal)
     step = 0.01 / max(motion.length, 0.01)  # about 1 cm (or 0.1 rad) per step
+    first = motion.progress(start)
     for _ in range(REPLANS):
         s0 = motion.progress(pose(v, held))
         if abs(1 - s0) * motion.length < 0.003:
@@ -125,6 +169,18 @@ def drive(v: View, ph: Phase, model: PartDynamics, kind: str, state_goal: bool) 
             lead = HORIZON * step * min(2.5, 1.0 + 0.3 * stuck)
             target = motion.at(s + float(np.clip(1 - s, -lead, lead)))
             hand = v.ee()
+            if motion.pivot is None:
+                # a slide: only the progress along the path is asked of the part, along
+                # the way the model says it moves (its own axis). The line from its
+                # measured start to its goal is off that axis by the measurement errors:
+                # a target on the line would stall the plan short of the goal.
+                u = motion.goal[:2] - motion.start[:2]
+                u = u / max(float(np.linalg.norm(u)), 1e-9)
+                moved = model.step(kind, now, np.array([*(0.01 * u), 0.0, 0.0]), 1.0,
+                                   hand[:2])[:2] - now[:2]
+                if float(moved @ u) > 0.002:
+                    target[:2] = now[:2] + float((target[:2] - now[:2]) @ u) / float(
+                        moved @ u) * moved
             want = compose(target, grasp)
             guess = np.array([want[0] - hand[0], want[1] - hand[1], 0.0,
                               wrap(want[3] - hand[3])])
@@ -136,18 +192,26 @@ def drive(v: View, ph: Phase, model: PartDynamics, kind: str, state_goal: bool) 
         yield from hold(v, 3, 0.0)
         yield from release(v, max(ph.open_width, 0.03), 0.05)
         yield from look(v, 8)
+        if motion.progress(pose(v, held)) - first < BLOCKED:
+            # the model predicted the part would follow the hand; at rest, let go and seen
+            # unhidden, it has not moved: blocked this way (while held, its measurement
+            # followed the slipping fingers). The next attempt plans the other path the
+            # fixture admits.
+            mem["mirrored"] = not mem.get("mirrored", False)
+            return
 
 
 def execute(v: View, dp: DemoParse, model: PartDynamics, kinds: dict[int, str],
-            state_goal: bool) -> Iterator[np.ndarray]:
+            state_goal: bool, memory: Memory) -> Iterator[np.ndarray]:
     """Every phase of the demonstration, in order, planned through ``model``
-    (``kinds``: the kind of part of each row the hand holds)."""
+    (``kinds``: the kind of part of each row the hand holds), adapted by what earlier
+    attempts showed (``memory``, updated by this one)."""
     yield from look(v, 8)
-    for ph in dp.phases:
+    for i, ph in enumerate(dp.phases):
         kind = kinds.get(ph.held, "free")
         if ph.kind == "carry":
-            yield from carry(v, ph, model, kind)
+            yield from carry(v, ph, model, kind, memory.of(i))
         elif ph.kind == "drive":
-            yield from drive(v, ph, model, kind, state_goal)
+            yield from drive(v, ph, model, kind, state_goal, memory.of(i))
         else:
             yield from tool(v, ph, dp)

@@ -6,7 +6,8 @@
 
 Data: for every family, ``--instances + --held-out`` instances drawn by the bench's public
 instance generation (``sample_instance`` with the split's variation, seeds
-``seed * 100000 + 1000 * family + k``: no campaign's seeds), each played once by the
+``seed * 100000 + 1000 * family + k``: no campaign's seeds; an opening's mechanism taken
+in turn, drawer, sliding cover, swivel lid, either hand), each played once by the
 scripted expert through ``eagc/Bench-<Family>-v0`` with exploration: on a quarter of the
 steps (``--noise``) the hand's motion gets Gaussian noise (0.5 of full scale), so the data
 hold motions the expert would not make while it grasps. Each step of each present row the
@@ -46,6 +47,8 @@ from worldmodel import (  # noqa: E402
     rot2,
     wrap,
 )
+
+MECHANISMS = ("drawer", "sliding_cover", "swivel_lid")
 
 
 def yaw_of(q: np.ndarray) -> float:
@@ -126,6 +129,11 @@ def main() -> int:
         for k in range(args.instances + args.held_out):
             seed = args.seed * 100_000 + 1000 * FAMILIES.index(fam) + k
             params = sample_instance(fam, seed, variation=variation)
+            if fam == "opening":  # every mechanism alike often (the split draws drawers
+                # mostly around its canonical instance), either hand of it
+                params = params.model_copy(update={"geometry": {
+                    **params.geometry, "kind": MECHANISMS[k % 3],
+                    "mirror": bool(rng.random() < 0.5)}})
             env = gym.make(env_id(fam), params=params, split=args.split, render_rgbd=False)
             prop, parts = rollout(env, ScriptedExpert, seed, args.noise, rng)
             env.close()

@@ -29,9 +29,10 @@ _HERE = Path(__file__).resolve().parent
 if not (_HERE / "demoparser.py").is_file():
     sys.path.insert(1, str(_HERE.parent / "track2_demoparser"))
 
+import numpy as np  # noqa: E402
 from demoparser import GOAL_EVENTS, STATE_EVENTS, demo_hints, main, segment  # noqa: E402
 from demoparser import Agent as DemoParser  # noqa: E402
-from mpc import execute  # noqa: E402
+from mpc import Memory, execute  # noqa: E402
 from parse import compose  # noqa: E402
 from taskmodel import task_model  # noqa: E402
 from worldmodel import PartDynamics, kind_of  # noqa: E402
@@ -54,6 +55,7 @@ class Agent(DemoParser):
     def __init__(self) -> None:
         super().__init__()
         self.dynamics = PartDynamics.load()
+        self.memory = Memory()  # what the attempts showed, kept for the next
 
     def write_model(self, stage: str) -> None:
         assert self.first is not None
@@ -87,10 +89,14 @@ class Agent(DemoParser):
         kinds = {p.held: kind_of(self.family, p.held, mech) for p in dp.phases}
         goal = next((e for e in self.manifest.events if e.event in GOAL_EVENTS), None)
         return execute(view, dp, self.dynamics, kinds,
-                       goal is not None and goal.event in STATE_EVENTS)
+                       goal is not None and goal.event in STATE_EVENTS, self.memory)
 
     def after_attempt(self, data: dict[str, Any]) -> None:
-        return None
+        """The model adapted to what the attempt showed (``self.memory``), logged."""
+        if not data.get("success"):
+            self.log("model_update", "execution", adapted={
+                str(i): {k: (np.round(v, 4).tolist() if isinstance(v, np.ndarray) else v)
+                         for k, v in m.items()} for i, m in self.memory.items() if m})
 
 
 if __name__ == "__main__":

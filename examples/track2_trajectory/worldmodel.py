@@ -54,10 +54,14 @@ MOVABLE = {"insertion": (0,), "rotation": (0,), "assembly": (1, 2, 3), "opening"
 
 
 def held_row(proprio: np.ndarray, rows: np.ndarray, movable: tuple[int, ...]) -> int:
-    """The movable row the hand holds (both fingers touching, the nearest present row
-    within ``HOLD_REACH`` of the fingers), or -1. ``rows``: (N, >=4) present, x, y, z."""
+    """The movable row the hand holds (both fingers touching; with one movable row, that
+    row, wherever its origin is (a lid's or a cover's frame sits at its hinge or slide, not
+    at the knob the hand holds); else the nearest present row within ``HOLD_REACH`` of the
+    fingers), or -1. ``rows``: (N, >=4) present, x, y, z."""
     if not (proprio[5] > 0.5 and proprio[6] > 0.5 and proprio[4] > 0.004):
         return -1
+    if len(movable) == 1:
+        return movable[0] if rows[movable[0], 0] > 0.5 else -1
     best, dist = -1, HOLD_REACH
     for i in movable:
         if rows[i, 0] > 0.5:
@@ -110,12 +114,13 @@ class PartDynamics:
 
     def rollout(self, kind: str, part: np.ndarray, hand: np.ndarray, d_hands: np.ndarray,
                 hold: float) -> tuple[np.ndarray, np.ndarray]:
-        """Part and hand poses after applying each row of ``d_hands`` (N, H, 4) in turn;
-        returns (N, 4) each."""
+        """Part and hand poses after each step of ``d_hands`` (N, H, 4), applied in turn;
+        returns (N, H, 4) each."""
         n = len(d_hands)
         parts = np.repeat(part[None, :], n, axis=0)
         hands = np.repeat(hand[None, :], n, axis=0)
         w = self.w.get(kind)
+        out_parts, out_hands = [], []
         for t in range(d_hands.shape[1]):
             dh = d_hands[:, t]
             yaw = parts[:, 3]
@@ -132,7 +137,9 @@ class PartDynamics:
             parts = parts + np.stack([c * loc[:, 0] - s * loc[:, 1],
                                       s * loc[:, 0] + c * loc[:, 1], loc[:, 2], loc[:, 3]], 1)
             hands = hands + dh
-        return parts, hands
+            out_parts.append(parts)
+            out_hands.append(hands)
+        return np.stack(out_parts, 1), np.stack(out_hands, 1)
 
 
 def plan_step(model: PartDynamics, kind: str, part: np.ndarray, hand: np.ndarray,
@@ -141,10 +148,11 @@ def plan_step(model: PartDynamics, kind: str, part: np.ndarray, hand: np.ndarray
               rng: np.random.Generator | None = None) -> np.ndarray:
     """The hand's next displacement (dx, dy, 0, dyaw), chosen by a cross-entropy search.
 
-    Cost of a candidate held for ``horizon`` steps: the predicted part's distance to
-    ``target`` (1 cm or 0.1 rad counts 1), plus, with ``grasp`` (the hand in the part's
-    frame), the hand's distance from where that grasp on the predicted part puts it (the
-    hand must not pull out of the grasp). ``guess`` seeds the search's mean."""
+    Cost of a candidate held for ``horizon`` steps, summed over the steps: the predicted
+    part's distance to ``target`` (1 cm or 0.1 rad counts 1), plus, with ``grasp`` (the
+    hand in the part's frame), the hand's distance from where that grasp on the predicted
+    part puts it (the hand must not pull out of the grasp). Summed, the cost prefers the
+    displacement that gets there soonest. ``guess`` seeds the search's mean."""
     rng = rng or np.random.default_rng(0)
     lim = np.array([0.012, 0.012, 0.0, 0.12])
     mean = np.clip(np.asarray(guess, dtype=float), -lim, lim)
@@ -155,14 +163,15 @@ def plan_step(model: PartDynamics, kind: str, part: np.ndarray, hand: np.ndarray
         cand[0] = mean
         seq = np.repeat(cand[:, None, :], horizon, axis=1)
         parts, hands = model.rollout(kind, part, hand, seq, 1.0)
-        cost = (np.linalg.norm(parts[:, :2] - target[:2], axis=1) / 0.01) ** 2 \
-            + (wrap(parts[:, 3] - target[3]) / 0.1) ** 2
+        cost = ((np.linalg.norm(parts[..., :2] - target[:2], axis=-1) / 0.01) ** 2
+                + (wrap(parts[..., 3] - target[3]) / 0.1) ** 2).sum(axis=1)
         if grasp is not None:
-            c, s = np.cos(parts[:, 3]), np.sin(parts[:, 3])
-            want = parts[:, :2] + np.stack([c * grasp[0] - s * grasp[1],
-                                            s * grasp[0] + c * grasp[1]], 1)
-            cost = cost + (np.linalg.norm(hands[:, :2] - want, axis=1) / 0.01) ** 2 \
-                + (wrap(hands[:, 3] - parts[:, 3] - grasp[3]) / 0.3) ** 2
+            c, s = np.cos(parts[..., 3]), np.sin(parts[..., 3])
+            want = parts[..., :2] + np.stack([c * grasp[0] - s * grasp[1],
+                                              s * grasp[0] + c * grasp[1]], -1)
+            cost = cost + ((np.linalg.norm(hands[..., :2] - want, axis=-1) / 0.01) ** 2
+                           + (wrap(hands[..., 3] - parts[..., 3] - grasp[3]) / 0.3) ** 2
+                           ).sum(axis=1)
         order = np.argsort(cost)
         if cost[order[0]] < best_cost:
             best, best_cost = cand[order[0]], float(cost[order[0]])

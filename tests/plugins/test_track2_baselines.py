@@ -103,3 +103,27 @@ def test_a_failed_attempt_is_heard_and_the_next_one_starts(runs: Path) -> None:
         assert f"attempts={len(ends)}, success at {len(ends)}" in r.score.notes
     png = TRACK.picture(Path(r.episode_dir or ""))
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_trajectory_baseline_adapts_its_model_to_a_blocked_turn(runs: Path) -> None:
+    # Seed 6106, index 6 on `standard`: a rotation whose knob turns the other way than the
+    # demonstration's (the instance's direction switched; checked first, so the fixture's
+    # premise cannot rot silently).
+    scenario = TRACK.make_scenario(seed=6106, split="standard", params={}, index=6)
+    hidden = scenario.params
+    assert hidden["family"] == "rotation"
+    assert hidden["source"]["goal"]["direction"] != hidden["instance"]["goal"]["direction"]
+    r = run("track2_trajectory", seed=6106, index=6, runs=runs)
+    assert r.status is EpisodeStatus.COMPLETED, r.failure
+    log = _log(r)
+    ends = [x["data"] for x in log if x["event"] == "attempt" and "success" in x["data"]]
+    # Attempt 1 follows the demonstration's turn into the stop and fails; the knob did not
+    # move, so the model is adapted (the drive's path reflected) ...
+    assert ends[0]["success"] is False, ends
+    updates = [x["data"]["adapted"] for x in log
+               if x["event"] == "model_update" and "adapted" in x["data"]]
+    assert updates and updates[0] == {"0": {"mirrored": True}}, updates
+    # ... and the next attempt turns the other way, to the goal.
+    assert ends[1]["success"] is True, ends
+    assert r.score.metrics["task_success"] == 1.0
+    assert "attempts=2, success at 2" in r.score.notes

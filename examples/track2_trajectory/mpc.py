@@ -65,6 +65,17 @@ def mirrored(ph: Phase) -> Phase:
                    displacement=m(ph.displacement))
 
 
+def push(v: View, d: np.ndarray, z: float) -> Plan:
+    """The hand's planned displacement ``d`` (dx, dy, -, dyaw), one step, fingers closed,
+    at height ``z``. The model maps the hand's motion to the part's; the hand is servoed to
+    a control target, which runs ahead of it while a joint's friction resists. So ``d``'s
+    xy is added to that target, not to where the hand is: the lead that makes the force
+    stays. Its yaw is added to the wrist's yaw as it is: a wrist wound up against a stop
+    would force the part through it."""
+    t, hand = v.target, v.ee()
+    yield from move(v, [t[0] + d[0], t[1] + d[1], z], hand[3] + d[3], 0.0, max_steps=1)
+
+
 def _goal(v: View, ph: Phase) -> np.ndarray:
     assert ph.ref is not None and ph.goal is not None
     return compose(pose(v, ph.ref), ph.goal)
@@ -109,8 +120,7 @@ def carry(v: View, ph: Phase, model: PartDynamics, kind: str, mem: dict[str, Any
             target = np.array([part[0] + err[0], part[1] + err[1], part[2], part[3] + dyaw])
             guess = np.array([err[0], err[1], 0.0, dyaw])
             d = plan_step(model, kind, part, hand, target, None, guess, horizon=1, rng=rng)
-            yield from move(v, [hand[0] + d[0], hand[1] + d[1], lift], hand[3] + d[3], 0.0,
-                            max_steps=1)
+            yield from push(v, d, lift)
         drop = v.pos(held)[2] - _goal(v, ph)[2]
         yield from _lower(v, held, drop + 0.02)
         yield from hold(v, 2, 0.0)
@@ -187,8 +197,7 @@ def drive(v: View, ph: Phase, model: PartDynamics, kind: str, state_goal: bool,
             now[3] = target[3] - wrap(target[3] - now[3])  # unwrapped next to the path
             d = plan_step(model, kind, now, hand, target, grasp, guess / HORIZON,
                           horizon=HORIZON, rng=rng)
-            yield from move(v, [hand[0] + d[0], hand[1] + d[1], want[2]], hand[3] + d[3],
-                            0.0, max_steps=1)
+            yield from push(v, d, want[2])
         yield from hold(v, 3, 0.0)
         yield from release(v, max(ph.open_width, 0.03), 0.05)
         yield from look(v, 8)

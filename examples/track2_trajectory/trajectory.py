@@ -93,10 +93,10 @@ class Agent(DemoParser):
 
     def after_attempt(self, data: dict[str, Any]) -> None:
         """The model adapted to what the attempt showed (``self.memory``), logged."""
-        if not data.get("success"):
-            self.log("model_update", "execution", adapted={
-                str(i): {k: (np.round(v, 4).tolist() if isinstance(v, np.ndarray) else v)
-                         for k, v in m.items()} for i, m in self.memory.items() if m})
+        adapted = {str(i): {k: (np.round(v, 4).tolist() if isinstance(v, np.ndarray) else v)
+                            for k, v in m.items()} for i, m in self.memory.items() if m}
+        if adapted and not data.get("success"):
+            self.log("model_update", "execution", adapted=adapted)
 
 
 if __name__ == "__main__":

@@ -140,7 +140,7 @@ def drive(v: View, ph: Phase, model: PartDynamics, kind: str, state_goal: bool,
           mem: dict[str, Any]) -> Plan:
     """Move the held mechanism along its path to the goal, replanned from where it stopped
     while it is short of the goal; the reflected path when an earlier attempt found this
-    one blocked (``mem["mirrored"]``), and whether this one was kept."""
+    one blocked (``mem["mirrored"]``, which this attempt updates)."""
     if mem.get("mirrored"):
         ph = mirrored(ph)
     held = ph.held

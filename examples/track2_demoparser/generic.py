@@ -30,7 +30,7 @@ A controller that is through leaves the rest of the attempt to the agent (it end
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from typing import Any
 
 import numpy as np
@@ -124,6 +124,24 @@ def _fresh(v: View, i: int, steps: int = 12) -> Plan:
 
 
 # -- carry ------------------------------------------------------------------------------------
+def pick_up(v: View, ph: Phase) -> Generator[np.ndarray, None, float]:
+    """A carry's start: grasp the held row as the demonstration did (its yaw chosen so the
+    turn to the goal stays within the wrist's range), lift it clear above its goal relative
+    to the reference row, hold still until it is measured in the hand. Returns the lift's
+    height (the hand's z)."""
+    assert ph.ref is not None and ph.goal is not None
+    goal = compose(pose(v, ph.ref), ph.goal)
+    part = pose(v, ph.held)
+    turn = wrap(near_period(goal[3] - part[3], TURN_PERIOD))
+    at, yaw0 = _grasp_pose(v, ph, part, turn)
+    yield from approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
+    lift = max(ph.carry_z, goal[2] + (v.ee()[2] - part[2]) + 0.03)
+    ee = v.ee()
+    yield from move(v, [ee[0], ee[1], lift], yaw0, 0.0, tol=0.004)
+    yield from _fresh(v, ph.held)
+    return float(lift)
+
+
 def carry(v: View, ph: Phase, checked: bool) -> Plan:
     """One carry; ``checked``: its success condition (the part where the demonstration left
     it, down on its support) is checked, a rim searched and the carry redone (up to 3)."""
@@ -131,15 +149,7 @@ def carry(v: View, ph: Phase, checked: bool) -> Plan:
     held, ref = ph.held, ph.ref
     offsets = [np.zeros(2), *spiral(0.002, 2)]
     for k in range(3 if checked else 1):
-        goal = compose(pose(v, ref), ph.goal)
-        part = pose(v, held)
-        turn = wrap(near_period(goal[3] - part[3], TURN_PERIOD))
-        at, yaw0 = _grasp_pose(v, ph, part, turn)
-        yield from approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
-        lift = max(ph.carry_z, goal[2] + (v.ee()[2] - part[2]) + 0.03)
-        ee = v.ee()
-        yield from move(v, [ee[0], ee[1], lift], yaw0, 0.0, tol=0.004)
-        yield from _fresh(v, held)
+        lift = yield from pick_up(v, ph)
 
         def error(off: np.ndarray = offsets[k % len(offsets)]) -> tuple[np.ndarray, float]:
             g = compose(pose(v, ref), ph.goal)
@@ -211,19 +221,26 @@ class Motion:
         return float((turned - self.start[3]) / self.dyaw)
 
 
-def drive(v: View, ph: Phase, state_goal: bool, tries: int, stall: float = 0.0) -> Any:
-    """Follow the part's motion at the grasp (see the module docstring); with ``stall`` > 0,
-    give up when the part has not followed by that fraction after 10 steps. Returns how far
-    the part and the hand went along the motion (fractions of it) on the last try."""
-    held = ph.held
+def path_of(v: View, ph: Phase, state_goal: bool) -> Motion:
+    """A drive's motion of its part, from where the part is now: to the demonstration's end
+    pose relative to the reference row when the goal is a state (``state_goal``), else by
+    the demonstration's displacement of the part from its own start."""
     assert ph.displacement is not None
-    start = pose(v, held)
+    start = pose(v, ph.held)
     if state_goal and ph.ref is not None and ph.goal is not None:
         goal = compose(pose(v, ph.ref), ph.goal)
         goal[3] = start[3] + wrap(goal[3] - start[3])
     else:
         goal = compose(start, ph.displacement)
-    motion = Motion(start, goal)
+    return Motion(start, goal)
+
+
+def drive(v: View, ph: Phase, state_goal: bool, tries: int, stall: float = 0.0) -> Any:
+    """Follow the part's motion at the grasp (see the module docstring); with ``stall`` > 0,
+    give up when the part has not followed by that fraction after 10 steps. Returns how far
+    the part and the hand went along the motion (fractions of it) on the last try."""
+    held = ph.held
+    motion = path_of(v, ph, state_goal)
     step = 0.01 / max(motion.length, 0.01)  # about 1 cm (or 0.1 rad) per step
     went = (0.0, 0.0)
     for _ in range(tries):

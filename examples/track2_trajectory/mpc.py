@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 from controllers import Plan, View, hold, look, move, release
-from generic import Motion, _fresh, _grasp_pose, _lower, approach, near_period, pose, tool
+from generic import _grasp_pose, _lower, approach, near_period, path_of, pick_up, pose, tool
 from parse import DemoParse, Phase, compose, relative
 from perception import wrap
 from worldmodel import PartDynamics, plan_step
@@ -97,14 +97,7 @@ def carry(v: View, ph: Phase, model: PartDynamics, kind: str, mem: dict[str, Any
     ph = replace(ph, goal=ph.goal - np.array([miss[0], miss[1], 0.0, 0.0]))
     rng = np.random.default_rng(held)
     for _ in range(REPLANS):
-        goal, part = _goal(v, ph), pose(v, held)
-        turn = wrap(near_period(goal[3] - part[3], TURN_PERIOD))
-        at, yaw0 = _grasp_pose(v, ph, part, turn)
-        yield from approach(v, at, yaw0, max(ph.open_width, 0.03), ph.held_width)
-        lift = max(ph.carry_z, goal[2] + (v.ee()[2] - part[2]) + 0.03)
-        ee = v.ee()
-        yield from move(v, [ee[0], ee[1], lift], yaw0, 0.0, tol=0.004)
-        yield from _fresh(v, held)
+        lift = yield from pick_up(v, ph)
         # the transport: straight over the goal (the demonstration's path carries the part
         # at its height), then the placement planned through the model, one step ahead
         for _ in range(3):
@@ -144,17 +137,9 @@ def drive(v: View, ph: Phase, model: PartDynamics, kind: str, state_goal: bool,
     if mem.get("mirrored"):
         ph = mirrored(ph)
     held = ph.held
-    assert ph.displacement is not None
     rng = np.random.default_rng(held)
-    start = pose(v, held)
-    if state_goal and ph.ref is not None and ph.goal is not None:
-        goal = _goal(v, ph)
-        goal[3] = start[3] + wrap(goal[3] - start[3])
-    else:
-        goal = compose(start, ph.displacement)
-    motion = Motion(start, goal)
+    motion = path_of(v, ph, state_goal)  # from where the part is: progress 0
     step = 0.01 / max(motion.length, 0.01)  # about 1 cm (or 0.1 rad) per step
-    first = motion.progress(start)
     for _ in range(REPLANS):
         s0 = motion.progress(pose(v, held))
         if abs(1 - s0) * motion.length < 0.003:
@@ -201,7 +186,7 @@ def drive(v: View, ph: Phase, model: PartDynamics, kind: str, state_goal: bool,
         yield from hold(v, 3, 0.0)
         yield from release(v, max(ph.open_width, 0.03), 0.05)
         yield from look(v, 8)
-        if motion.progress(pose(v, held)) - first < BLOCKED:
+        if motion.progress(pose(v, held)) < BLOCKED:
             # the model predicted the part would follow the hand; at rest, let go and seen
             # unhidden, it has not moved: blocked this way (while held, its measurement
             # followed the slipping fingers). The next attempt plans the other path the

@@ -48,7 +48,7 @@ from worldmodel import (  # noqa: E402
     wrap,
 )
 
-MECHANISMS = ("drawer", "sliding_cover", "swivel_lid")
+MECHANISMS = KINDS[2:]  # an opening's: drawer, sliding cover, swivel lid
 
 
 def yaw_of(q: np.ndarray) -> float:
